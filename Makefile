@@ -1,0 +1,43 @@
+# robocourse: the two commands a student needs.
+#   make lab   - set up .venv (first time only) and open JupyterLab on chapters/
+#   make test  - same set-up, then the whole suite (unit tests + every notebook)
+# Both are idempotent: the venv is rebuilt only when requirements.txt or pyproject.toml change.
+
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.robocourse-installed
+KERNEL := robocourse
+LAB_FLAGS ?=
+PYTEST_FLAGS ?=
+
+.PHONY: lab test setup kernel exercises lint clean
+
+setup: $(STAMP)
+
+$(STAMP): requirements.txt pyproject.toml
+	@$(PYTHON) -c 'import sys; v = sys.version_info; sys.exit(0 if v >= (3, 10) else "robocourse needs Python 3.10 or newer; found %d.%d. Install a newer python3 or run: make PYTHON=python3.11 test" % v[:2])'
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -r requirements.txt
+	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
+	$(PY) -m ipykernel install --sys-prefix --name $(KERNEL) --display-name "Python (robocourse)" > /dev/null
+	@touch $(STAMP)
+	@echo "robocourse environment ready in $(VENV)"
+
+kernel: $(STAMP)
+
+lab: $(STAMP)
+	$(VENV)/bin/jupyter lab --notebook-dir=chapters $(LAB_FLAGS)
+
+test: $(STAMP)
+	$(PY) -X faulthandler -m pytest $(PYTEST_FLAGS)
+
+exercises: $(STAMP)
+	$(VENV)/bin/robocourse exercises build
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+
+clean:
+	rm -rf $(VENV) .pytest_cache

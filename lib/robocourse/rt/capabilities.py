@@ -1,0 +1,194 @@
+"""What this machine lets a process do for real-time work, each item with its exact fix.
+
+No ROS 2 counterpart as one call: it gathers what rttest and the ROS 2 real-time docs tell you
+to check by hand (RLIMIT_RTPRIO, RLIMIT_MEMLOCK, the kernel's preemption model, timer slack,
+RT throttling, cyclictest). Every probe *tries* rather than guesses: scheduling is attempted
+and reverted in this thread; mlockall is attempted in a throw-away subprocess.
+"""
+
+from __future__ import annotations
+
+import getpass
+import os
+import platform
+import resource
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+RT_PRIORITY = 98  # the seed's priority; never 99, the kernel's watchdogs live there
+CAP_IPC_LOCK = 14
+CAP_SYS_NICE = 23
+
+
+@dataclass
+class Finding:
+    """One line of the report: what, what we found, is it good for RT work, and the fix."""
+
+    name: str
+    value: str
+    ok: bool
+    fix: str = ""
+
+    def line(self) -> str:
+        mark = "ok " if self.ok else "-- "
+        text = f"{mark}{self.name:<28} {self.value}"
+        if not self.ok and self.fix:
+            first, *rest = self.fix.splitlines()
+            text += "\n      fix: " + first + "".join("\n           " + r for r in rest)
+        return text
+
+
+def _user() -> str:
+    try:
+        return getpass.getuser()
+    except Exception:
+        return str(os.geteuid())
+
+
+def _limit_text(value: int) -> str:
+    return "unlimited" if value == resource.RLIM_INFINITY else str(value)
+
+
+def effective_capabilities() -> int:
+    """Bitmask of this process's effective Linux capabilities (CapEff in /proc/self/status)."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("CapEff:"):
+                return int(line.split()[1], 16)
+    except OSError:
+        pass
+    return 0
+
+
+def preemption_model() -> str:
+    """'PREEMPT_RT', 'PREEMPT', 'PREEMPT_DYNAMIC (mode)', 'VOLUNTARY' or 'NONE' from the running kernel."""
+    version = platform.version()
+    if Path("/sys/kernel/realtime").exists() and Path("/sys/kernel/realtime").read_text().strip() == "1":
+        return "PREEMPT_RT"
+    if "PREEMPT_RT" in version:
+        return "PREEMPT_RT"
+    if "PREEMPT_DYNAMIC" in version:
+        mode = ""
+        try:
+            text = Path("/sys/kernel/debug/sched/preempt").read_text()
+            mode = next((w.strip("()") for w in text.split() if w.startswith("(")), "")
+        except OSError:
+            pass
+        return f"PREEMPT_DYNAMIC ({mode})" if mode else "PREEMPT_DYNAMIC"
+    if "PREEMPT" in version:
+        return "PREEMPT"
+    return "VOLUNTARY or NONE"
+
+
+def timer_slack_ns() -> int | None:
+    try:
+        return int(Path("/proc/self/timerslack_ns").read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def try_rt_scheduling(priority: int = RT_PRIORITY) -> tuple[bool, str]:
+    """Try SCHED_FIFO at ``priority`` for the calling thread, then restore its old policy."""
+    if not hasattr(os, "sched_setscheduler"):
+        return False, "this OS has no sched_setscheduler (not Linux)"
+    old_policy = os.sched_getscheduler(0)
+    old_param = os.sched_getparam(0)
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except OSError as exc:
+        return False, f"Couldn't set scheduling priority and policy: {exc.strerror}"
+    os.sched_setscheduler(0, old_policy, old_param)
+    return True, f"SCHED_FIFO priority {priority} accepted (then restored)"
+
+
+_MLOCK_PROBE = r"""
+import ctypes, ctypes.util, os, sys
+libc = ctypes.CDLL(ctypes.util.find_library("c"), use_errno=True)
+rc = libc.mlockall(1 | 2)  # MCL_CURRENT | MCL_FUTURE
+if rc != 0:
+    print("mlockall failed: " + os.strerror(ctypes.get_errno())); sys.exit(1)
+libc.munlockall(); print("ok")
+"""
+
+
+def try_mlockall() -> tuple[bool, str]:
+    """Try mlockall(MCL_CURRENT | MCL_FUTURE) in a short-lived Python subprocess."""
+    proc = subprocess.run([sys.executable, "-c", _MLOCK_PROBE], capture_output=True, text=True, timeout=30)
+    text = (proc.stdout or proc.stderr).strip().splitlines()[-1:] or ["no answer"]
+    if proc.returncode == 0:
+        return True, "mlockall(MCL_CURRENT | MCL_FUTURE) succeeded in a test process"
+    return False, f"{text[0]}. Couldn't lock all cached virtual memory."
+
+
+def probe(try_calls: bool = True) -> list[Finding]:
+    """The full report, as a list of findings (see :func:`report` for the printed form)."""
+    user = _user()
+    python = os.path.realpath(sys.executable)
+    caps = effective_capabilities()
+    out: list[Finding] = []
+    root = os.geteuid() == 0
+    out.append(Finding("user", f"{user} (uid {os.geteuid()}{', root' if root else ''})", True))
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_RTPRIO)
+    rtprio_ok = root or bool(caps >> CAP_SYS_NICE & 1) or soft >= 1
+    out.append(Finding(
+        "RLIMIT_RTPRIO", f"soft {_limit_text(soft)}, hard {_limit_text(hard)}"
+        + (" (root/CAP_SYS_NICE overrides it)" if (root or caps >> CAP_SYS_NICE & 1) else ""),
+        rtprio_ok,
+        f"add to /etc/security/limits.conf:  {user} - rtprio {RT_PRIORITY}\n"
+        "then log out and in (never 99: kernel watchdog threads run there)\n"
+        f"or, for this Python only: sudo setcap cap_sys_nice+ep {python}"))
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_MEMLOCK)
+    mem_ok = root or bool(caps >> CAP_IPC_LOCK & 1) or soft == resource.RLIM_INFINITY
+    out.append(Finding(
+        "RLIMIT_MEMLOCK", f"soft {_limit_text(soft)} B, hard {_limit_text(hard)} B"
+        + (" (root/CAP_IPC_LOCK overrides it)" if (root or caps >> CAP_IPC_LOCK & 1) else ""),
+        mem_ok,
+        f"add to /etc/security/limits.conf:  {user} - memlock -1\n"
+        "(or a size in kB, e.g. 1048576), then log out and in\n"
+        f"or, for this Python only: sudo setcap cap_ipc_lock+ep {python}"))
+
+    if try_calls:
+        ok, text = try_rt_scheduling()
+        out.append(Finding("SCHED_FIFO (tried)", text, ok,
+                           f"grant rtprio as above (limits.conf: {user} - rtprio {RT_PRIORITY})"))
+        ok, text = try_mlockall()
+        out.append(Finding("mlockall (tried)", text, ok, f"grant memlock as above (limits.conf: {user} - memlock -1)"))
+
+    model = preemption_model()
+    out.append(Finding("kernel preemption", f"{model} ({platform.release()})", model.startswith("PREEMPT_RT"),
+                       "a PREEMPT_RT kernel bounds worst-case latency to tens of us; e.g. Ubuntu:\n"
+                       "sudo pro enable realtime-kernel, or Debian: sudo apt-get install linux-image-rt-amd64"))
+
+    slack = timer_slack_ns()
+    out.append(Finding("timer slack", f"{slack} ns" if slack is not None else "unknown", slack == 0,
+                       "plain sleeps may oversleep by this much under SCHED_OTHER; real-time\n"
+                       "scheduling (SCHED_FIFO/RR) sets it to 0, or use a hybrid sleep-then-spin wait"))
+
+    try:
+        runtime = int(Path("/proc/sys/kernel/sched_rt_runtime_us").read_text())
+        period = int(Path("/proc/sys/kernel/sched_rt_period_us").read_text())
+        out.append(Finding("RT throttling", f"{runtime} of {period} us" if runtime >= 0 else "off (-1)", True))
+    except (OSError, ValueError):
+        pass
+
+    isolated = ""
+    try:
+        isolated = Path("/sys/devices/system/cpu/isolated").read_text().strip()
+    except OSError:
+        pass
+    out.append(Finding("CPUs", f"{os.cpu_count()} online; isolated: {isolated or 'none'}", True))
+
+    cyclictest = shutil.which("cyclictest")
+    out.append(Finding("cyclictest", cyclictest or "not installed", cyclictest is not None,
+                       "sudo apt-get install rt-tests   (Fedora: sudo dnf install realtime-tests)"))
+    return out
+
+
+def report(findings: list[Finding] | None = None) -> str:
+    findings = probe() if findings is None else findings
+    return "\n".join(f.line() for f in findings)
