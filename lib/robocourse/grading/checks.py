@@ -253,13 +253,19 @@ def reset() -> None:
     _RESULTS.clear()
 
 
-def score(names: list[str] | None = None, *, quiet: bool = False) -> tuple[float, float]:
+def score(names: str | list[str] | None = None, *, quiet: bool = False) -> tuple[float, float]:
     """Print "Score: X/Y" and a line per check; return (points, max points).
 
-    ``names`` lists the checks of this notebook (checks never run count as 0); default: the
-    checks run in this session.
+    ``names``: a chapter prefix (``score("ch01")``: every registered check named ``ch01.*``),
+    or a list of check names; checks never run count as 0. Default: the checks run so far.
     """
     discover()
+    if isinstance(names, str):
+        prefix = names.rstrip(".") + "."
+        names = sorted(n for n, c in _REGISTRY.items() if n.startswith(prefix) and not c.uses) + sorted(
+            n for n in _RESULTS if n.startswith(prefix) and _REGISTRY.get(n) and _REGISTRY[n].uses)
+        if not names:
+            raise KeyError(f"no checks registered under {prefix!r}; is the chapter prefix right?")
     names = list(names) if names is not None else list(_RESULTS)
     points = total = 0.0
     lines = []
