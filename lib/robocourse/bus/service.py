@@ -53,6 +53,7 @@ class Service:
         self._destroyed = False
         self.request_count = 0
         self.error_count = 0
+        self._raw = False
 
     @property
     def service_name(self) -> str:
@@ -74,6 +75,10 @@ class Service:
     def _execute(self, work):
         request, client, future = work
         self.request_count += 1
+        if self._raw:
+            # internal deferred-response mode (action servers answer get_result later)
+            self.callback(request, lambda resp, err=None: client._respond(future, resp, err))
+            return
         try:
             response = self.callback(request, self.srv_type.Response())
             if type(response) is not self.srv_type.Response:
