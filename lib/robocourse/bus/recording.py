@@ -23,7 +23,7 @@ import itertools
 import numpy as np
 
 from robocourse.bus.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from robocourse.msgs import from_dict, full_definition, get_message_type, to_numpy
+from robocourse.msgs import definition_name, from_dict, full_definition, get_message_type, to_numpy
 
 _ids = itertools.count()
 
@@ -32,10 +32,8 @@ _ids = itertools.count()
 def _encoder(msg_type):
     from mcap_ros2._dynamic import serialize_dynamic
 
-    name = msg_type._type
-    pkg, _, short = name.split("/")
-    encoders = serialize_dynamic(f"{pkg}/{short}", full_definition(msg_type))
-    return encoders[f"{pkg}/{short}"]
+    name = definition_name(msg_type._type)
+    return serialize_dynamic(name, full_definition(msg_type))[name]
 
 
 class Recorder:
@@ -94,9 +92,10 @@ class Recorder:
         latched = all(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in pubs)
         qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.BEST_EFFORT,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
-        pkg, _, short = msg_type._type.split("/")
         if msg_type not in self._schemas:
-            self._schemas[msg_type] = self._writer.register_msgdef(msg_type._type, full_definition(msg_type))
+            schema_name = msg_type._type if "_" not in msg_type._type.rsplit("/", 1)[1] \
+                else definition_name(msg_type._type)
+            self._schemas[msg_type] = self._writer.register_msgdef(schema_name, full_definition(msg_type))
         schema = self._schemas[msg_type]
         clock = self.node.get_clock()
         writer = self._writer

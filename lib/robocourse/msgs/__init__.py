@@ -36,6 +36,7 @@ from robocourse.msgs._core import (
     ServiceType,
     action,
     check_message,
+    definition_name,
     from_dict,
     full_definition,
     get_message_type,
@@ -50,6 +51,6 @@ from robocourse.msgs._core import (
 
 __all__ = [
     "REGISTRY", "ActionType", "FieldSpec", "MessageDefinitionError", "ServiceType", "action",
-    "check_message", "from_dict", "full_definition", "get_message_type", "is_message_type",
+    "check_message", "definition_name", "from_dict", "full_definition", "get_message_type", "is_message_type",
     "make_message", "message", "numeric_paths", "service", "to_dict", "to_numpy",
 ]

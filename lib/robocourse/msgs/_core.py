@@ -293,6 +293,7 @@ def _builder(type_name: str, definition: str, package: str):
                 f"{type_name} is already registered with a different definition; "
                 f"pick another type name for your own message")
         REGISTRY[type_name] = new_cls
+        definition_name(type_name)   # records the alias of '_' names for look-ups
         return new_cls
 
     return wrap
@@ -416,17 +417,38 @@ def is_message_type(obj) -> bool:
 def get_message_type(type_name: str) -> type:
     """Look up a registered type by full name (``"geometry_msgs/msg/Twist"``) or ``pkg/Name``."""
     if type_name.count("/") == 1:
+        if type_name in ALIASES:
+            return _resolve(ALIASES[type_name])
         pkg, name = type_name.split("/")
         type_name = f"{pkg}/msg/{name}"
+    else:
+        alias = definition_name(type_name)
+        if alias in ALIASES and type_name not in REGISTRY:
+            return _resolve(ALIASES[alias])
     return _resolve(type_name)
+
+
+#: "pkg/Name" used in definitions -> full type name, for the rosidl-generated parts whose
+#: names contain '_' (Fibonacci_Goal): the ROS 2 .msg parser only accepts [A-Z][A-Za-z0-9]*,
+#: so definitions and MCAP schemas spell them without '_' (Fibonacci_Goal -> FibonacciGoal).
+ALIASES: dict[str, str] = {}
+
+
+def definition_name(type_name: str) -> str:
+    """The ``pkg/Name`` spelling of a type in .msg text and MCAP schemas."""
+    pkg, _, name = type_name.split("/")
+    if "_" in name:
+        alias = f"{pkg}/{name.replace('_', '')}"
+        ALIASES[alias] = type_name
+        return alias
+    return f"{pkg}/{name}"
 
 
 def _ros_type_name(spec: FieldSpec) -> str:
     if spec.is_primitive:
         base = spec.base_type + spec.string_bound
     else:
-        pkg, _, name = spec.base_type.split("/")
-        base = f"{pkg}/{name}"
+        base = definition_name(spec.base_type)
     if spec.is_array:
         if spec.array_size is None:
             return base + "[]"
@@ -463,8 +485,7 @@ def full_definition(msg_type: type) -> str:
     walk(msg_type)
     out = [own_text(msg_type)]
     for name in seen:
-        pkg, _, short = name.split("/")
-        out.append("=" * 80 + f"\nMSG: {pkg}/{short}\n" + own_text(_resolve(name)))
+        out.append("=" * 80 + f"\nMSG: {definition_name(name)}\n" + own_text(_resolve(name)))
     return "\n".join(out) + "\n"
 
 
