@@ -227,6 +227,12 @@ class Executor:
                 return None
             if done_flag is not None and done_flag():
                 return None
+            if end is not None:
+                # wall time moves while callbacks run: stop at the end even if work remains;
+                # simulated time only moves here, so work due exactly at `end` still runs
+                now = sim.ns if sim is not None else _time.monotonic_ns()
+                if now > end or (sim is None and now >= end):
+                    return None
             item = self._poll()
             if item is not None:
                 return item
@@ -241,12 +247,12 @@ class Executor:
                 if sim_next is not None and (end is None or sim_next <= end):
                     sim.advance_to(sim_next)
                     continue
-                if end is not None and wall_wait is None and not self._external_waiters():
-                    sim.advance_to(end)      # nothing can happen before `end`: jump there
+                if end is not None and wall_wait is None:
+                    # nothing is scheduled before `end`: in simulated time the executor is the
+                    # clock, so it jumps there (another thread's publish would not wait for it)
+                    sim.advance_to(end)
                     return None
                 wait = None if wall_wait is None else max(0, wall_wait) / 1e9
-                if end is not None and (wait is None or wait > 0.001):
-                    wait = 0.001   # poll: another thread may complete a future meanwhile
                 self._sleep(wait)
                 continue
             now = _time.monotonic_ns()
@@ -257,9 +263,6 @@ class Executor:
                 rem = end - now
                 wait = rem if wait is None else min(wait, rem)
             self._sleep(None if wait is None else wait / 1e9)
-
-    def _external_waiters(self) -> bool:
-        return bool(getattr(self, "_future_waiting", False))
 
     # ------------------------------------------------------------------ running
     def _run(self, ent, work):

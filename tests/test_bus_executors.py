@@ -1,0 +1,245 @@
+"""Executors and callback groups, with real threads (counts and overlaps, no timing asserts)."""
+
+import threading
+import time
+
+import pytest
+
+from robocourse.bus import (
+    Context,
+    Future,
+    MultiThreadedExecutor,
+    MutuallyExclusiveCallbackGroup,
+    ReentrantCallbackGroup,
+    SingleThreadedExecutor,
+)
+from robocourse.msgs.std_msgs import Int64
+
+
+class Overlap:
+    """Records how many callbacks run at once; each callback waits for a partner briefly."""
+
+    def __init__(self):
+        self.lock = threading.Lock()
+        self.active = 0
+        self.max_active = 0
+        self.calls = 0
+        self.both_in = threading.Barrier(2, timeout=None)
+
+    def work(self, wait_for_partner):
+        with self.lock:
+            self.active += 1
+            self.calls += 1
+            self.max_active = max(self.max_active, self.active)
+        if wait_for_partner:
+            try:
+                self.both_in.wait(timeout=0.2)   # returns early only if a partner is inside too
+            except threading.BrokenBarrierError:
+                pass
+        else:
+            time.sleep(0.02)
+        with self.lock:
+            self.active -= 1
+
+
+def two_timer_graph(group_factory, num_threads=2):
+    ctx = Context()
+    n = ctx.create_node("n")
+    rec = Overlap()
+    g1 = group_factory()
+    g2 = g1 if group_factory is not None else None
+    n.create_timer(0.01, lambda: rec.work(True), callback_group=g1)
+    n.create_timer(0.01, lambda: rec.work(True), callback_group=g2)
+    ex = MultiThreadedExecutor(num_threads=num_threads, context=ctx)
+    ex.add_node(n)
+    return ctx, ex, rec
+
+
+def test_reentrant_callbacks_overlap_on_a_multithreaded_executor():
+    ctx, ex, rec = two_timer_graph(ReentrantCallbackGroup)
+    ex.spin_for(0.5)
+    assert rec.calls >= 2
+    assert rec.max_active == 2
+
+
+def test_mutually_exclusive_callbacks_never_overlap():
+    ctx, ex, rec = two_timer_graph(MutuallyExclusiveCallbackGroup)
+    ex.spin_for(0.5)
+    assert rec.calls >= 2
+    assert rec.max_active == 1
+
+
+def test_default_group_means_no_parallelism_even_with_many_threads():
+    ctx = Context()
+    n = ctx.create_node("n")
+    rec = Overlap()
+    n.create_timer(0.01, lambda: rec.work(True))
+    n.create_timer(0.01, lambda: rec.work(True))
+    ex = MultiThreadedExecutor(num_threads=4, context=ctx)
+    ex.add_node(n)
+    ex.spin_for(0.5)
+    assert rec.calls >= 2 and rec.max_active == 1
+
+
+def test_two_exclusive_groups_run_in_parallel():
+    ctx = Context()
+    n = ctx.create_node("n")
+    rec = Overlap()
+    n.create_timer(0.01, lambda: rec.work(True), callback_group=MutuallyExclusiveCallbackGroup())
+    n.create_timer(0.01, lambda: rec.work(True), callback_group=MutuallyExclusiveCallbackGroup())
+    ex = MultiThreadedExecutor(num_threads=2, context=ctx)
+    ex.add_node(n)
+    ex.spin_for(0.5)
+    assert rec.max_active == 2
+
+
+def test_single_threaded_executor_never_overlaps_even_reentrant():
+    ctx = Context()
+    n = ctx.create_node("n")
+    rec = Overlap()
+    g = ReentrantCallbackGroup()
+    n.create_timer(0.01, lambda: rec.work(False), callback_group=g)
+    n.create_timer(0.01, lambda: rec.work(False), callback_group=g)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(n)
+    ex.spin_for(0.1)
+    assert rec.calls >= 2 and rec.max_active == 1
+
+
+def test_multithreaded_executor_in_sim_time_delivers_everything():
+    ctx = Context(use_sim_time=True)
+    a, b = ctx.create_node("a"), ctx.create_node("b")
+    pub = a.create_publisher(Int64, "t", 100)
+    k = [0]
+
+    def tick():
+        k[0] += 1
+        pub.publish(Int64(data=k[0]))
+
+    a.create_timer(0.01, tick)
+    got = []
+    lock = threading.Lock()
+
+    def cb(m):
+        with lock:
+            got.append(m.data)
+
+    b.create_subscription(Int64, "t", cb, 100, callback_group=ReentrantCallbackGroup())
+    ex = MultiThreadedExecutor(num_threads=2, context=ctx)
+    ex.add_node(a)
+    ex.add_node(b)
+    ex.spin_for(1.0)
+    assert ctx.now() == 1.0
+    assert sorted(got) == list(range(1, 101))
+
+
+def test_spin_once_runs_one_callback():
+    ctx = Context(use_sim_time=True)
+    n = ctx.create_node("n")
+    pub = n.create_publisher(Int64, "t", 10)
+    got = []
+    n.create_subscription(Int64, "t", got.append, 10)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(n)
+    pub.publish(Int64(data=1))
+    pub.publish(Int64(data=2))
+    ex.spin_once(timeout_sec=0)
+    assert len(got) == 1
+    ex.spin_once(timeout_sec=0)
+    assert len(got) == 2
+    ex.spin_once(timeout_sec=0.5)    # nothing to do: sim time advances by the timeout
+    assert ctx.now() == 0.5
+
+
+def test_spin_until_future_complete_with_timeout_and_cross_thread_completion():
+    ctx = Context(use_sim_time=True)
+    n = ctx.create_node("n")
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(n)
+    never = Future()
+    ex.spin_until_future_complete(never, timeout_sec=2.0)
+    assert not never.done() and ctx.now() == 2.0
+    f = Future()
+    n.create_timer(0.3, lambda: f.set_result(ctx.now()))
+    ex.spin_until_future_complete(f)
+    assert f.result() == pytest.approx(2.3)
+    wall = Context()
+    wn = wall.create_node("w")
+    wex = SingleThreadedExecutor(context=wall)
+    wex.add_node(wn)
+    g = Future()
+    threading.Timer(0.02, lambda: g.set_result(42)).start()
+    wex.spin_until_future_complete(g, timeout_sec=5)
+    assert g.result() == 42
+
+
+def test_cross_thread_publisher_wakes_a_sleeping_executor():
+    ctx = Context()
+    a, b = ctx.create_node("a"), ctx.create_node("b")
+    pub = a.create_publisher(Int64, "t", 1000)
+    got = []
+    done = Future()
+
+    def cb(m):
+        got.append(m.data)
+        if len(got) == 500:
+            done.set_result(True)
+
+    b.create_subscription(Int64, "t", cb, 1000)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(b)
+
+    def producer():
+        for i in range(500):
+            pub.publish(Int64(data=i))
+            if i % 50 == 0:
+                time.sleep(0.001)
+
+    th = threading.Thread(target=producer)
+    th.start()
+    ex.spin_until_future_complete(done, timeout_sec=10)
+    th.join()
+    assert got == list(range(500))
+
+
+def test_shutdown_while_callbacks_run():
+    ctx = Context()
+    n = ctx.create_node("n")
+    started, release = threading.Event(), threading.Event()
+    finished = []
+
+    def slow():
+        started.set()
+        release.wait(5)
+        finished.append(1)
+
+    n.create_timer(0.001, slow, callback_group=ReentrantCallbackGroup())
+    ex = MultiThreadedExecutor(num_threads=2, context=ctx)
+    ex.add_node(n)
+    th = threading.Thread(target=ex.spin)
+    th.start()
+    assert started.wait(5)
+    ctx.shutdown()                   # while a callback is running
+    release.set()
+    th.join(5)
+    assert not th.is_alive()         # spin returned
+    count = len(finished)
+    assert count >= 1                # the running callback completed
+    ex2 = SingleThreadedExecutor(context=ctx)
+    ex2.add_node(n)
+    ex2.spin_for(0.05)               # a shut-down context runs nothing more
+    assert len(finished) == count
+    with pytest.raises(RuntimeError, match="twice"):
+        ctx.shutdown()
+    with pytest.raises(RuntimeError, match="shut down"):
+        ctx.create_node("late")
+
+
+def test_spinning_from_inside_a_callback_is_refused():
+    ctx = Context(use_sim_time=True)
+    n = ctx.create_node("n")
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(n)
+    n.create_timer(0.1, lambda: ex.spin_once(0))
+    ex.spin_for(0.5)
+    assert len(ex.callback_errors) == 5 and "already spinning" in str(ex.callback_errors[0].exception)
