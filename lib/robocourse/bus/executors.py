@@ -269,15 +269,28 @@ class Executor:
         prev = getattr(_tls, "current", None)
         _tls.current = (self, ent)
         try:
-            ent._execute(work)
+            out = ent._execute(work)
+            if out is not None and hasattr(out, "send") and hasattr(out, "throw"):
+                # an `async def` callback: run it as a task, like rclpy's executor does
+                task = Task(lambda c=out: c, executor=self, callback_group=ent.callback_group)
+                task._node = getattr(ent, "_node", None)
+
+                def report(f, ent=ent):
+                    if f.exception() is not None:
+                        self._report(ent, f.exception(), tb=False)
+
+                report._immediate = True
+                task.add_done_callback(report)
+                task()
         except Exception as exc:  # noqa: BLE001 - reported, executor keeps running
             self._report(ent, exc)
         finally:
             _tls.current = prev
 
-    def _report(self, ent, exc):
+    def _report(self, ent, exc, tb=True):
         where = ent._describe() if hasattr(ent, "_describe") else repr(ent)
-        text = traceback.format_exc()
+        text = traceback.format_exc() if tb else "".join(
+            traceback.format_exception(type(exc), exc, exc.__traceback__))
         err = CallbackError(where, exc, text)
         self.callback_errors.append(err)
         node = getattr(ent, "_node", None)

@@ -78,7 +78,7 @@ class Subscription:
 
     def _execute(self, msg):
         self.receive_count += 1
-        self.callback(msg)
+        return self.callback(msg)
 
     def _describe(self) -> str:
         return (f"subscription callback on topic '{self.topic_name}' of node "

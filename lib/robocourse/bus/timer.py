@@ -64,7 +64,7 @@ class Timer:
 
     def _execute(self, _work):
         self.call_count += 1
-        self.callback()
+        return self.callback()
 
     def _describe(self) -> str:
         return f"timer callback of node '{self._node.get_fully_qualified_name()}'"
