@@ -138,20 +138,22 @@ class Recording:
     """An MCAP file read back: ``.topics``, ``.messages(topic)``, ``.to_numpy(topic)``."""
 
     def __init__(self, path):
-        from mcap_ros2.reader import read_ros2_messages
+        from mcap.reader import make_reader
+        from mcap_ros2.decoder import DecoderFactory
 
         self.path = str(path)
         self._by_topic: dict[str, list] = {}
         self.types: dict[str, type] = {}
         self.entries = []
-        for m in read_ros2_messages(self.path):
-            topic = m.channel.topic
-            if topic not in self.types:
-                self.types[topic] = get_message_type(m.schema.name)
-            msg = from_dict(self.types[topic], m.ros_msg)
-            item = (m.log_time_ns, topic, msg)
-            self.entries.append(item)
-            self._by_topic.setdefault(topic, []).append((m.log_time_ns, msg))
+        with open(self.path, "rb") as f:
+            reader = make_reader(f, decoder_factories=[DecoderFactory()])
+            for schema, channel, message, decoded in reader.iter_decoded_messages(log_time_order=True):
+                topic = channel.topic
+                if topic not in self.types:
+                    self.types[topic] = get_message_type(schema.name)
+                msg = from_dict(self.types[topic], decoded)
+                self.entries.append((message.log_time, topic, msg))
+                self._by_topic.setdefault(topic, []).append((message.log_time, msg))
 
     @property
     def topics(self) -> list[str]:
