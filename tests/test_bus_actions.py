@@ -3,8 +3,8 @@
 import itertools
 
 import pytest
-
 from robocourse.bus import Context, SingleThreadedExecutor
+from robocourse.bus import introspection as ros2
 from robocourse.bus.action import (
     TRANSITIONS,
     ActionClient,
@@ -15,7 +15,6 @@ from robocourse.bus.action import (
     InvalidGoalTransition,
     goal_transition,
 )
-from robocourse.bus import introspection as ros2
 from robocourse.msgs.action_msgs import CancelGoal, GoalStatus, GoalStatusArray
 from robocourse.msgs.example_interfaces import Fibonacci
 

@@ -1,7 +1,6 @@
 """Publishers and subscriptions: delivery, faults and the 1M-message burst."""
 
 import pytest
-
 from robocourse.bus import (
     Context,
     HistoryPolicy,

@@ -4,7 +4,6 @@ deadline, liveliness and matched events."""
 import math
 
 import pytest
-
 from robocourse.bus import (
     Context,
     DurabilityPolicy,

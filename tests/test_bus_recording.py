@@ -3,7 +3,6 @@
 import numpy as np
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
-
 from robocourse.bus import Context, DurabilityPolicy, QoSProfile, SingleThreadedExecutor
 from robocourse.bus.recording import read_recording, record, replay
 from robocourse.msgs import full_definition
@@ -54,7 +53,7 @@ def test_mcap_file_read_with_the_mcap_library_every_message_checked(tmp_path):
         assert {c.topic: c.message_encoding for c in summary.channels.values()} == {
             "/cmd_vel": "cdr", "/joint_states": "cdr", "/robot_description": "cdr"}
         cmd, joints, desc = [], [], []
-        for schema, channel, message, decoded in reader.iter_decoded_messages():
+        for _schema, channel, message, decoded in reader.iter_decoded_messages():
             if channel.topic == "/cmd_vel":
                 cmd.append((message.log_time, decoded.linear.x, decoded.angular.z))
             elif channel.topic == "/joint_states":

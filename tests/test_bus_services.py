@@ -3,7 +3,6 @@
 import threading
 
 import pytest
-
 from robocourse.bus import (
     Context,
     DeadlockError,

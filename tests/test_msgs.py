@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 from mcap_ros2._dynamic import generate_dynamic, serialize_dynamic
-
 from robocourse import msgs
 from robocourse.msgs import (
     MessageDefinitionError,

@@ -120,4 +120,20 @@ def spin_until_future_complete(node: Node, future, executor=None, timeout_sec=No
         ex.remove_node(node)
 
 
-__all__ = [name for name in dir() if not name.startswith("_")]
+__all__ = [
+    "CallbackError", "CallbackGroup", "Client", "Clock", "ClockType", "Context", "DeadlockError",
+    "DurabilityPolicy", "Duration", "Executor", "ExternalShutdownException",
+    "FloatingPointRange", "Future", "HistoryPolicy", "IntegerRange", "InvalidHandle",
+    "InvalidNameError", "InvalidParameterTypeException", "InvalidParameterValueException",
+    "InvalidQoSProfileException", "LivelinessPolicy", "MultiThreadedExecutor",
+    "MutuallyExclusiveCallbackGroup", "Node", "Parameter", "ParameterAlreadyDeclaredException",
+    "ParameterDescriptor", "ParameterImmutableException", "ParameterNotDeclaredException",
+    "Publisher", "PublisherEventCallbacks", "QoSCompatibility", "QoSPolicyKind",
+    "QoSPresetProfiles", "QoSProfile", "ROSClock", "Rate", "ReentrantCallbackGroup",
+    "ReliabilityPolicy", "Service", "ServiceCallbackError", "SetParametersResult", "SimTime",
+    "SingleThreadedExecutor", "Subscription", "SubscriptionEventCallbacks", "Task", "Time",
+    "Timer", "create_node", "get_default_context", "get_global_executor", "init", "ok",
+    "qos_check_compatible", "qos_profile_action_status_default", "qos_profile_sensor_data",
+    "qos_profile_services_default", "qos_profile_system_default", "shutdown", "spin",
+    "spin_once", "spin_until_future_complete",
+]

@@ -12,9 +12,9 @@ or 0 means "infinite/unset" like ``Duration()`` in rclpy.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import IntEnum
-from typing import Callable
 
 from robocourse.bus.clock import Duration
 

@@ -28,7 +28,7 @@ from robocourse.msgs import definition_name, from_dict, full_definition, get_mes
 _ids = itertools.count()
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _encoder(msg_type):
     from mcap_ros2._dynamic import serialize_dynamic
 

@@ -14,19 +14,19 @@ files store it. Chapters add their own types with :func:`message`, :func:`servic
 """
 
 from robocourse.msgs import (  # noqa: F401  (import order registers dependencies first)
+    action_msgs,
     builtin_interfaces,
-    unique_identifier_msgs,
-    std_msgs,
+    diagnostic_msgs,
+    example_interfaces,
     geometry_msgs,
     nav_msgs,
-    sensor_msgs,
-    trajectory_msgs,
-    diagnostic_msgs,
-    tf2_msgs,
     rosgraph_msgs,
-    action_msgs,
+    sensor_msgs,
+    std_msgs,
     std_srvs,
-    example_interfaces,
+    tf2_msgs,
+    trajectory_msgs,
+    unique_identifier_msgs,
 )
 from robocourse.msgs._core import (
     REGISTRY,

@@ -452,7 +452,7 @@ def _ros_type_name(spec: FieldSpec) -> str:
     if spec.is_array:
         if spec.array_size is None:
             return base + "[]"
-        return base + ("[<=%d]" % spec.array_size if spec.is_bounded else "[%d]" % spec.array_size)
+        return base + (f"[<={spec.array_size}]" if spec.is_bounded else f"[{spec.array_size}]")
     return base
 
 
