@@ -66,6 +66,8 @@ class Executor:
         self._running = 0
         self._nodes_lock = threading.Lock()
         self._done_flag = None
+        self._after_timer = False
+        self._budget = 0
 
     # ------------------------------------------------------------------ nodes & entities
     @property
@@ -159,11 +161,10 @@ class Executor:
         best_ns = None
         for t in self._timers:
             nxt = t._next_ns
-            if nxt is None:
+            if nxt is None or (best_ns is not None and nxt >= best_ns):
                 continue
-            if nxt <= t._clock._now_ns() and (best_ns is None or nxt < best_ns):
-                if self._group_free(t):
-                    best, best_ns = t, nxt
+            if nxt <= t._clock._now_ns() and self._group_free(t):
+                best, best_ns = t, nxt
         return best
 
     def _group_free(self, ent) -> bool:
@@ -201,8 +202,20 @@ class Executor:
         return None
 
     def _poll(self):
+        # Fairness like rclpy's wait set: after a timer ran, the entities that are ready at
+        # that point (e.g. the subscriptions it just published to) run before the next timer.
+        if self._after_timer:
+            self._after_timer = False
+            self._budget = len(self._ready)
+        if self._budget > 0:
+            self._budget -= 1
+            item = self._pop_ready()
+            if item is not None:
+                return item
+            self._budget = 0
         t = self._due_timer()
         if t is not None:
+            self._after_timer = True
             return t, t._take()
         if self._ready:
             return self._pop_ready()
@@ -222,17 +235,20 @@ class Executor:
             end = until_ns if end is None else min(end, until_ns)
         sim = self._sim()
         done_flag = self._done_flag
+        ctx = self._context
+        first = True
         while True:
-            if self._is_shutdown or (self._context is not None and not self._context.ok()):
+            if self._is_shutdown or (ctx is not None and not ctx._ok):
                 return None
             if done_flag is not None and done_flag():
                 return None
-            if end is not None:
+            if end is not None and not first:
                 # wall time moves while callbacks run: stop at the end even if work remains;
                 # simulated time only moves here, so work due exactly at `end` still runs
                 now = sim.ns if sim is not None else _time.monotonic_ns()
                 if now > end or (sim is None and now >= end):
                     return None
+            first = False
             item = self._poll()
             if item is not None:
                 return item
