@@ -277,6 +277,10 @@ def five_node_graph_cpu(seconds):
 # ------------------------------------------------------------------------------- main
 
 
+def fmt(x, spec):
+    return "-" if x != x else spec.format(x)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="fewer samples (smoke run)")
@@ -329,7 +333,6 @@ def main(argv=None):
         p50 = statistics.median(v["p50"]) if v["p50"] else float("nan")
         p99 = statistics.median(v["p99"]) if v["p99"] else float("nan")
         rate = statistics.median(v["rate"]) if v["rate"] else float("nan")
-        fmt = (lambda x, f: "-" if x != x else f.format(x))
         print(f"{name:58s} {fmt(p50, '{:8.2f}'):>8s} {fmt(p99, '{:8.2f}'):>8s} "
               f"{fmt(rate, '{:10.0f}'):>10s} {fmt(p50 / b50, '{:8.2f}'):>8s} "
               f"{fmt(p99 / b99, '{:8.2f}'):>8s} {fmt(rate / brate, '{:9.2f}'):>9s}")

@@ -236,7 +236,9 @@ class Executor:
         sim = self._sim()
         done_flag = self._done_flag
         ctx = self._context
-        first = True
+        # spin_once(timeout) polls at least once even with a zero timeout; spin loops stop
+        # at their end time before polling (so always-due work cannot keep them running)
+        first = until_ns is None
         while True:
             if self._is_shutdown or (ctx is not None and not ctx._ok):
                 return None
