@@ -242,3 +242,29 @@ def test_spinning_from_inside_a_callback_is_refused():
     n.create_timer(0.1, lambda: ex.spin_once(0))
     ex.spin_for(0.5)
     assert len(ex.callback_errors) == 5 and "already spinning" in str(ex.callback_errors[0].exception)
+
+
+def test_rclpy_style_globals_init_spin_once_spin_until_future_complete_shutdown():
+    import robocourse.bus as rclpy
+
+    ctx = rclpy.init(use_sim_time=True)
+    try:
+        with pytest.raises(RuntimeError, match="twice"):
+            rclpy.init()
+        node = rclpy.create_node("solo")
+        assert node.context is ctx and rclpy.ok()
+        pub = node.create_publisher(Int64, "t", 10)
+        got = []
+        node.create_subscription(Int64, "t", got.append, 10)
+        pub.publish(Int64(data=3))
+        rclpy.spin_once(node, timeout_sec=0)
+        assert [m.data for m in got] == [3]
+        f = Future()
+        node.create_timer(1.5, lambda: f.set_result("tick"))
+        rclpy.spin_until_future_complete(node, f, timeout_sec=5)
+        assert f.result() == "tick" and ctx.now() == 1.5
+    finally:
+        rclpy.shutdown()
+    assert not rclpy.ok()
+    with pytest.raises(RuntimeError, match="init"):
+        rclpy.create_node("after")

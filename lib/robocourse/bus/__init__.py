@@ -31,7 +31,6 @@ from robocourse.bus.context import Context, get_default_context, init, ok, shutd
 from robocourse.bus.executors import (
     CallbackError,
     Executor,
-    ExternalShutdownException,
     MultiThreadedExecutor,
     SingleThreadedExecutor,
 )
@@ -122,7 +121,7 @@ def spin_until_future_complete(node: Node, future, executor=None, timeout_sec=No
 
 __all__ = [
     "CallbackError", "CallbackGroup", "Client", "Clock", "ClockType", "Context", "DeadlockError",
-    "DurabilityPolicy", "Duration", "Executor", "ExternalShutdownException",
+    "DurabilityPolicy", "Duration", "Executor",
     "FloatingPointRange", "Future", "HistoryPolicy", "IntegerRange", "InvalidHandle",
     "InvalidNameError", "InvalidParameterTypeException", "InvalidParameterValueException",
     "InvalidQoSProfileException", "LivelinessPolicy", "MultiThreadedExecutor",

@@ -5,8 +5,9 @@ rclpy counterparts: ``rclpy.time.Time``, ``rclpy.duration.Duration``, ``rclpy.cl
 from the /clock topic published by a simulator. Here a :class:`SimTime` source lives in the
 :class:`~robocourse.bus.context.Context` and the executor is the simulator's clock: whenever
 nothing is ready it jumps simulated time straight to the next timer deadline, so spinning
-"10 s" takes only as long as the callbacks, and two runs give identical results. The
-executor also publishes /clock (rosgraph_msgs/Clock) if someone subscribes to it.
+"10 s" takes only as long as the callbacks, and two runs give identical results. Difference:
+there is no /clock topic; nodes read the context's simulated time directly
+(``rosgraph_msgs/Clock`` exists in robocourse.msgs for code that wants to publish one).
 """
 
 from __future__ import annotations

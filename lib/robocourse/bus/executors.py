@@ -33,10 +33,6 @@ def current_callback():
     return getattr(_tls, "current", None)
 
 
-class ExternalShutdownException(Exception):
-    """The context was shut down while spinning (rclpy.executors.ExternalShutdownException)."""
-
-
 class CallbackError:
     """One exception raised by a callback, with where it happened."""
 
