@@ -1,5 +1,7 @@
 """Publishers and subscriptions: delivery, faults and the 1M-message burst."""
 
+import struct
+
 import pytest
 from robocourse.bus import (
     Context,
@@ -154,3 +156,16 @@ def test_reliable_keep_all_delivers_a_million_messages_in_order():
     ex.spin_for(0.001)
     assert state == {"next": n, "bad": 0}
     assert sub.receive_count == n and sub.counts.dropped_keep_last == 0
+
+
+def test_raw_subscription_gets_cdr_bytes():
+    ctx, ex = make()
+    n = ctx.create_node("n")
+    pub = n.create_publisher(Float64, "x", 10)
+    got = []
+    n.create_subscription(Float64, "x", got.append, 10, raw=True)
+    ex.add_node(n)
+    pub.publish(Float64(data=1.0))
+    ex.spin_for(0.001)
+    # CDR: little-endian encapsulation header 00 01 00 00, then the float64
+    assert got == [bytes.fromhex("00010000") + struct.pack("<d", 1.0)]

@@ -6,6 +6,10 @@ allow_undeclared_parameters, automatically_declare_parameters_from_overrides)`` 
 ``sleep_async(seconds)`` (an awaitable sleep on the node's clock, handy in coroutine callbacks
 under simulated time) and ``context`` defaulting to the one from :func:`robocourse.bus.init`.
 
+Accepted for signature compatibility and ignored (nothing here needs them):
+``start_parameter_services``, ``use_global_arguments``, ``enable_rosout``,
+``qos_overriding_options``, ``publisher_class``.
+
 Duplicate node names: like ROS 2 we allow them and log a warning (ROS warns about the rosout
 logger publisher; ``ros2 node list`` warns about duplicates). Both nodes work; graph queries
 list both.
@@ -202,6 +206,14 @@ class Node(ParameterMixin):
         qos = qos_from_arg(qos_profile)
         name = self.resolve_topic_name(topic)
         group = callback_group or self.default_callback_group
+        if raw:   # rclpy raw=True: the callback gets the CDR-serialized bytes
+            from robocourse.bus.recording import _encoder
+
+            user_cb, encode = callback, _encoder(msg_type)
+
+            def callback(msg, user_cb=user_cb, encode=encode):
+                return user_cb(bytes(encode(msg)))
+
         sub = Subscription(self, msg_type, name, callback, qos, event_callbacks, group)
         group.add_entity(sub)
         self.subscriptions.append(sub)

@@ -5,6 +5,10 @@ rclpy counterparts: ``rclpy.qos`` (``QoSProfile``, ``HistoryPolicy``, ``Reliabil
 ``qos_check_compatible``) and ``rclpy.event_handler`` (``SubscriptionEventCallbacks``,
 ``PublisherEventCallbacks`` and the ``QoS*Info`` event payloads).
 
+In-process delivery never loses a sample, so BEST_EFFORT differs from RELIABLE only in
+matching, and the ``message_lost`` event never fires; KEEP_LAST overflow and lifespan expiry
+are counted on the subscription (``sub.counts``) instead.
+
 Durations are given in seconds (float) or as :class:`robocourse.bus.clock.Duration`; ``None``
 or 0 means "infinite/unset" like ``Duration()`` in rclpy.
 """
