@@ -62,6 +62,8 @@ def test_mcap_file_read_with_the_mcap_library_every_message_checked(tmp_path):
             else:
                 desc.append(decoded.data)
     assert desc == ["<robot name='r'/>"]
+    back = read_recording(path)
+    assert len(back) == 201 and back.messages("/robot_description")[0][1].data == desc[0]
     assert len(cmd) == 100 and len(joints) == 100
     for i, (t, x, z) in enumerate(cmd, start=1):
         assert t == i * 10_000_000 and x == 0.1 * i and z == -i
@@ -74,8 +76,8 @@ def test_read_back_as_numpy_and_replay(tmp_path):
     ctx, ex = sim_graph()
     rec = record(ctx, tmp_path / "a.mcap", ["/cmd_vel", "/joint_states"], executor=ex)
     ex.spin_for(0.5)
-    rec.close()
-    r = read_recording(tmp_path / "a.mcap")
+    r = rec.read()                      # close + read back in one call
+    assert r.path == str(tmp_path / "a.mcap") and rec.read().topics == r.topics
     assert r.topics == ["/cmd_vel", "/joint_states"] and len(r) == 100
     d = r.to_numpy("/cmd_vel")
     np.testing.assert_allclose(d["t"], np.arange(1, 51) * 0.01)

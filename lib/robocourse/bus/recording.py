@@ -122,6 +122,10 @@ class Recorder:
 
     stop = close
 
+    def read(self) -> Recording:
+        """Close the file (if still recording) and read it back: ``rec.read().to_numpy("/x")``."""
+        return Recording(self.close())
+
     def __enter__(self):
         return self
 
