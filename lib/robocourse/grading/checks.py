@@ -24,9 +24,10 @@ import signal
 import threading
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 RESULTS_ENV = "ROBOCOURSE_GRADING_RESULTS"
 EXTRA_CHECKS_ENV = "ROBOCOURSE_EXTRA_CHECKS"
