@@ -43,6 +43,7 @@ class Grade:
     results: dict = field(default_factory=dict)  # name -> {"points", "weight", "passed", "message"}
     status: str = ""
     seconds: float = 0.0
+    errors: list = field(default_factory=list)  # "cell N: Type: message" from the run
 
     @property
     def points(self) -> float:
@@ -61,6 +62,8 @@ class Grade:
         for name, r in self.results.items():
             mark = "PASS" if r["passed"] else "FAIL"
             lines.append(f"[{mark}] {name} ({r['points']:g}/{r['weight']:g}): {r['message']}")
+        if self.errors:
+            lines += ["", "Errors while running your notebook:"] + [f"  {e}" for e in self.errors]
         return "\n".join(lines) + "\n"
 
 
@@ -154,6 +157,7 @@ def grade_one(path: Path, assignment: Assignment | None, student: str, *, time_l
         status = _read_json(status_file)
         recorded = _read_results(results_file)
     g.seconds = time.monotonic() - start
+    g.errors = list(status.get("errors", []))[:20]
     if timed_out:
         g.status = f"stopped after the {time_limit:g} s time limit (an endless loop or a very slow cell)"
     elif status.get("reason"):
