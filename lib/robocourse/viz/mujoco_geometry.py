@@ -38,7 +38,7 @@ class MujocoDrawer:
                 scene.cylinder(path, 2 * size[1], size[0], rgba)
             elif kind == gt.mjGEOM_ELLIPSOID:
                 scene.sphere(path, 1.0, rgba)
-                scene.set_transform(f"{path}/geometry", np.diag([*size, 1.0]), _static=True)
+                scene.set_transform(f"{path}/geometry", np.diag([*size, 1.0]), _static=True)  # a scale, not a pose
             elif kind == gt.mjGEOM_PLANE:
                 half = [s if s > 0 else plane_size for s in size[:2]]
                 scene.box(path, (2 * half[0], 2 * half[1], 0.002), rgba)
@@ -54,6 +54,9 @@ class MujocoDrawer:
 
     def update(self, data) -> None:
         """Set every drawn geom's pose from ``data`` (call after mj_step / mj_forward)."""
+        if self.model.ngeom and not data.geom_xmat.any():
+            raise ValueError("data.geom_xmat is all zeros: MuJoCo has not computed poses yet; "
+                             "call mujoco.mj_forward(model, data) (or mj_step) before drawing")
         for i, path in self.paths:
             self.scene.set_transform(path, tf.transform(data.geom_xpos[i], rotation=data.geom_xmat[i].reshape(3, 3)))
         if self._static:

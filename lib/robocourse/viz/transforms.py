@@ -65,6 +65,9 @@ def transform(position=(0.0, 0.0, 0.0), quat_wxyz=None, rotation=None) -> np.nda
         r = np.asarray(rotation, dtype=np.float64)
         if r.shape != (3, 3) or not np.all(np.isfinite(r)):
             raise ValueError(f"rotation must be a finite 3x3 matrix, got shape {r.shape}")
+        if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0:
+            raise ValueError(f"rotation is not a proper rotation matrix (R R^T != I or det {np.linalg.det(r):.3g} != 1); "
+                             "build it with rot_x/rot_y/rot_z or rotation_from_quaternion")
         out[:3, :3] = r
     return out
 
