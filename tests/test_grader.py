@@ -217,6 +217,9 @@ def test_instructor_checks_from_a_directory(tmp_path, root):
     assert (grades["dan"].points, grades["dan"].max_points) == (8.0, 8.0)
     assert grades["eve"].results["ch00.hidden_budget"]["points"] == 0.0
     assert "not implemented" in grades["eve"].results["ch00.hidden_budget"]["message"]
+    # a later grading run without --checks does not expect the instructor's check any more
+    [g] = grade([str(sub / "00_setup_exercises_dan.ipynb")], solutions_dir=root / "solutions", time_limit=60)
+    assert list(g.results) == CHECKS and g.points == 5.0
 
 
 def test_unknown_assignment_is_reported_not_crashed(tmp_path, root):

@@ -68,12 +68,16 @@ class Grade:
 
 
 def load_assignments(solutions_dir: Path, extra_dirs=()) -> dict[str, Assignment]:
-    registry = checks_mod.discover(list(extra_dirs))
+    registry = checks_mod.discover()
+    # hidden checks: the library's own (declared with uses=...) and those in this call's folders only
+    hidden = {n for n, c in registry.items() if c.uses and checks_mod.is_library_check(n)}
+    for d in extra_dirs:
+        hidden.update(checks_mod.load_check_dir(d))
     out = {}
     for sol in sorted(Path(solutions_dir).glob("*.ipynb")):
         names = checks_in(nbformat.read(sol, as_version=4))
         prefixes = {n.split(".")[0] for n in names}
-        extra = [n for n, c in registry.items() if c.uses and n.split(".")[0] in prefixes and n not in names]
+        extra = [n for n in hidden if n.split(".")[0] in prefixes and n not in names]
         out[sol.stem] = Assignment(sol.stem, sol, names + sorted(extra))
     return out
 
@@ -168,7 +172,7 @@ def grade_one(path: Path, assignment: Assignment | None, student: str, *, time_l
     if status.get("output_truncated"):
         g.status = (g.status + "; " if g.status else "") + "output was too large and was truncated"
     for name in assignment.checks:
-        weight = checks_mod._REGISTRY[name].weight if name in checks_mod._REGISTRY else 1.0
+        weight = registry_weight(name)
         if name in recorded:
             r = recorded[name]
             g.results[name] = {"points": float(r["points"]), "weight": weight,
@@ -177,6 +181,11 @@ def grade_one(path: Path, assignment: Assignment | None, student: str, *, time_l
             why = g.status or "its check cell was deleted or never reached"
             g.results[name] = {"points": 0.0, "weight": weight, "passed": False, "message": f"did not run: {why}"}
     return g
+
+
+def registry_weight(name: str) -> float:
+    chk = checks_mod.discover().get(name)
+    return chk.weight if chk else 1.0
 
 
 def _read_json(path: Path) -> dict:
