@@ -154,3 +154,16 @@ def test_bad_simulation_input_is_clear():
 def test_pendulum_plant_has_the_unstable_pole():
     G = analysis.pendulum_plant()
     assert max(np.real(G.poles())) == pytest.approx(analysis.growth_rate())
+
+
+def test_jitter_replay_sustained_delay_topples_a_spike_does_not():
+    from robocourse.pendulum import jitter
+
+    lat = {"2 ms": np.full(10, 2e6), "4 ms": np.full(10, 4e6), "spike": np.r_[np.zeros(499), 20e6]}
+    rows = {r["latencies"]: r for r in jitter.replay(lat, duration=1.0)}
+    assert rows["2 ms"]["delay_margin_ms"] == pytest.approx(3.37, abs=0.02)
+    assert not rows["2 ms"]["fell"] and rows["4 ms"]["fell"]
+    assert not rows["spike"]["fell"] and rows["spike"]["max_ms"] == 20.0
+    assert "FELL at" in jitter.format_rows(list(rows.values()))
+    with pytest.raises(ValueError, match="empty"):
+        jitter.replay({"none": []})
