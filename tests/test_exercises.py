@@ -59,7 +59,8 @@ def test_every_solution_has_checks_and_no_solution_leaks(root):
 
 def test_check_reports_edits_missing_and_stray_files(tmp_path, root):
     shutil.copytree(root / "solutions", tmp_path / "solutions")
-    assert exercises.build(tmp_path)
+    assert len(exercises.build(tmp_path)) == len(list((root / "solutions").glob("*.ipynb")))
+    assert exercises.build(tmp_path) == []  # nothing changed: nothing rewritten
     assert exercises.check(tmp_path) == []
     target = sorted((tmp_path / "exercises").glob("*.ipynb"))[0]
     target.write_text(target.read_text().replace("YOUR CODE HERE", "edited by hand"))
