@@ -1,0 +1,161 @@
+"""Disturbances for experiments: the things that put a tail on a loop's latency.
+
+No single ROS 2 counterpart: the seed's write-up names them (other load on the core,
+allocating in the loop, page faults on fresh memory, logging) and the pendulum demo is run
+under ``stress``. Python adds its own: the garbage collector. In-loop disturbances are
+callables to pass as (or chain into) the loop's callback; :class:`CpuLoad` is a context
+manager running busy processes pinned to a CPU.
+"""
+
+from __future__ import annotations
+
+import gc
+import logging
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+_BUSY = "import os, sys\nos.sched_setaffinity(0, {int(a) for a in sys.argv[1:]})\nwhile True:\n    pass\n"
+
+
+class CpuLoad:
+    """``with CpuLoad(cpu=1, processes=2):`` busy-looping processes pinned to ``cpu`` (like stress -c).
+
+    They run under SCHED_OTHER: a SCHED_OTHER loop on the same core must share the CPU with
+    them (the scheduler's fair share shows up as latency); a SCHED_FIFO loop preempts them.
+    """
+
+    def __init__(self, cpu: int | None = None, processes: int = 1):
+        allowed = sorted(os.sched_getaffinity(0))
+        if cpu is None:
+            cpu = allowed[-1]
+        if cpu not in allowed:
+            raise ValueError(f"CpuLoad(cpu={cpu!r}): this process may use CPUs {allowed}; pick one of them")
+        if not isinstance(processes, int) or processes < 1:
+            raise ValueError(f"CpuLoad(processes={processes!r}): need at least 1 process")
+        self.cpu = cpu
+        self.processes = processes
+        self._procs: list[subprocess.Popen] = []
+
+    def __enter__(self):
+        for _ in range(self.processes):
+            self._procs.append(subprocess.Popen([sys.executable, "-c", _BUSY, str(self.cpu)],
+                                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL))
+        time.sleep(0.05)  # let them start spinning before the measurement does
+        return self
+
+    def __exit__(self, *exc):
+        for p in self._procs:
+            p.kill()
+        for p in self._procs:
+            p.wait()
+        self._procs.clear()
+        return False
+
+    @property
+    def pids(self) -> list[int]:
+        return [p.pid for p in self._procs]
+
+
+class AllocationStorm:
+    """Allocate (and drop) ``objects`` small Python objects and a ``nbytes`` buffer every iteration."""
+
+    def __init__(self, objects: int = 2000, nbytes: int = 256 * 1024):
+        self.objects = int(objects)
+        self.nbytes = int(nbytes)
+
+    def __call__(self, tick=None):
+        junk = [(i, str(i)) for i in range(self.objects)]
+        buf = bytearray(self.nbytes)
+        del junk, buf
+        return None
+
+
+class FreshMemory:
+    """Touch ``nbytes`` of newly allocated memory every iteration: one page fault per 4 KiB page.
+
+    With glibc's defaults a block this big is served by a fresh mmap() and unmapped on free,
+    so every iteration faults again; after :func:`~robocourse.rt.settings.prefault_heap`
+    (M_MMAP_MAX 0, no trimming) it reuses already-mapped heap and the faults disappear.
+    """
+
+    def __init__(self, nbytes: int = 1024 * 1024):
+        self.nbytes = int(nbytes)
+
+    def __call__(self, tick=None):
+        a = np.empty(self.nbytes, dtype=np.uint8)
+        a[::4096] = 1  # one write per page is enough to fault each page in
+        return None
+
+
+class GcPressure:
+    """Keep ``live`` container objects alive and create cyclic garbage each iteration.
+
+    The cycles trigger the collector; every so often it runs a full (oldest-generation)
+    collection that walks all ``live`` objects: tens of ms with a million of them, unless
+    they were moved out of its reach with gc.freeze().
+    """
+
+    def __init__(self, live: int = 300_000, cycles_per_iteration: int = 200):
+        self.live = [[i] for i in range(int(live))]
+        self.cycles = int(cycles_per_iteration)
+
+    def __call__(self, tick=None):
+        for _ in range(self.cycles):
+            a: list = []
+            a.append(a)
+        return None
+
+    @staticmethod
+    def time_full_collection() -> float:
+        """Seconds one gc.collect() takes right now."""
+        t = time.perf_counter()
+        gc.collect()
+        return time.perf_counter() - t
+
+
+class LogEveryIteration:
+    """Log one line per iteration through ``logging`` to a file (the seed's "don't print in the loop")."""
+
+    def __init__(self, path, level: int = logging.INFO):
+        self.logger = logging.getLogger(f"robocourse.rt.disturb.{id(self)}")
+        self.logger.propagate = False
+        self.logger.setLevel(level)
+        self.handler = logging.FileHandler(path, mode="w")
+        self.handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
+        self.logger.addHandler(self.handler)
+
+    def __call__(self, tick=None):
+        if tick is not None:
+            self.logger.info("iteration %d latency %d ns", tick.iteration, tick.latency_ns)
+        else:
+            self.logger.info("iteration")
+        return None
+
+    def close(self):
+        self.logger.removeHandler(self.handler)
+        self.handler.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+
+def chain(*callbacks):
+    """One callback that calls each of ``callbacks`` in order (and passes STOP through)."""
+    from .loop import STOP
+
+    def run(tick):
+        result = None
+        for cb in callbacks:
+            if cb(tick) is STOP:
+                result = STOP
+        return result
+
+    return run
