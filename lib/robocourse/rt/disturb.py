@@ -11,12 +11,11 @@ from __future__ import annotations
 
 import gc
 import logging
+import mmap
 import os
 import subprocess
 import sys
 import time
-
-import numpy as np
 
 _BUSY = "import os, sys\nos.sched_setaffinity(0, {int(a) for a in sys.argv[1:]})\nwhile True:\n    pass\n"
 
@@ -75,19 +74,44 @@ class AllocationStorm:
 
 
 class FreshMemory:
-    """Touch ``nbytes`` of newly allocated memory every iteration: one page fault per 4 KiB page.
+    """Map ``nbytes`` of brand-new anonymous memory every iteration and touch each page.
 
-    With glibc's defaults a block this big is served by a fresh mmap() and unmapped on free,
-    so every iteration faults again; after :func:`~robocourse.rt.settings.prefault_heap`
-    (M_MMAP_MAX 0, no trimming) it reuses already-mapped heap and the faults disappear.
+    Every first touch of a page is a minor page fault (the kernel finds and zeroes a page):
+    ``nbytes / 4096`` faults per iteration, which no prefaulting can prevent, because the
+    memory is new each time. The cure is to allocate before the loop and reuse.
     """
 
     def __init__(self, nbytes: int = 1024 * 1024):
+        if nbytes < mmap.PAGESIZE:
+            raise ValueError(f"FreshMemory(nbytes={nbytes!r}): use at least one page ({mmap.PAGESIZE} B)")
         self.nbytes = int(nbytes)
 
     def __call__(self, tick=None):
-        a = np.empty(self.nbytes, dtype=np.uint8)
-        a[::4096] = 1  # one write per page is enough to fault each page in
+        m = mmap.mmap(-1, self.nbytes)
+        for offset in range(0, self.nbytes, mmap.PAGESIZE):
+            m[offset] = 1
+        m.close()
+        return None
+
+
+class HeapGrowth:
+    """Grow the malloc heap by ``chunk`` bytes every iteration, keeping ``keep`` chunks alive.
+
+    This is the allocation pattern rttest's dynamic prefault is made for: the first time the
+    heap grows into new pages they fault *inside the loop*. After
+    :func:`~robocourse.rt.settings.prefault_heap` (heap faulted in once, M_TRIM_THRESHOLD -1
+    so freed memory stays mapped, M_MMAP_MAX 0) the same allocations reuse mapped pages: zero faults.
+    """
+
+    def __init__(self, chunk: int = 64 * 1024, keep: int = 200):
+        self.chunk = int(chunk)
+        self.keep = int(keep)
+        self._held: list[bytearray] = []
+
+    def __call__(self, tick=None):
+        self._held.append(bytearray(self.chunk))  # zero-filled: every page is written
+        if len(self._held) >= self.keep:
+            self._held.clear()
         return None
 
 
