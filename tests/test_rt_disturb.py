@@ -11,6 +11,7 @@ from robocourse.rt.disturb import (
     AllocationStorm,
     CpuLoad,
     FreshMemory,
+    GcPauses,
     GcPressure,
     HeapGrowth,
     LogEveryIteration,
@@ -34,13 +35,15 @@ def test_cpu_load_pins_busy_processes_and_cleans_up():
         CpuLoad(cpu=4096)
 
 
-def test_gc_pressure_triggers_collections():
-    gc.collect()
-    before = gc.get_stats()[0]["collections"]
-    pressure = GcPressure(live=1000, cycles_per_iteration=2000)
-    for _ in range(5):
-        pressure()
-    assert gc.get_stats()[0]["collections"] > before
+def test_gc_pressure_survivors_reach_the_oldest_generation_and_pauses_are_recorded():
+    pressure = GcPressure(live=1000, per_iteration=50, window=10)
+    with GcPauses() as pauses:
+        for _ in range(200):
+            pressure()
+        gc.collect()
+    assert len(pressure.recent) == 10 and len(pressure.live) == 1000
+    assert len(pauses.full()) >= 1 and all(d >= 0 for d in pauses.full())
+    assert {g for g, _ in pauses.pauses} >= {0, 2}
     assert GcPressure.time_full_collection() > 0
 
 

@@ -53,6 +53,7 @@ def test_latency_is_sampled_before_the_callback():
     r = PeriodicLoop(1_000_000, 20, wait=Sleep(), clock=clock, pagefaults=False).run(callback)
     assert seen == list(r.latency_ns)
     assert (r.latency_ns == 0).all()
+    assert (r.busy_ns == 300_000).all()  # the callback's duration is kept separately
 
 
 def test_signed_latency_negative_when_woken_early():

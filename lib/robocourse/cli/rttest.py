@@ -73,7 +73,7 @@ def run_rttest(args) -> int:
     heap, note = _heap_cap(opts.heap_size)
     if note:
         print(note)
-    for r in settings.lock_and_prefault(opts.stack_size, heap):
+    for r in settings.lock_and_prefault(opts.stack_size, heap, until_no_faults=True):
         print(r)
     print(settings.gc_freeze())
     print(settings.set_scheduling(opts.policy, opts.priority))

@@ -11,6 +11,20 @@
 - ``capabilities``: what this machine allows (and how to fix it).
 """
 
+from . import (
+    capabilities,
+    clock,
+    cyclictest,
+    disturb,
+    loop,
+    options,
+    permissions,
+    plot,
+    results_file,
+    settings,
+    stats,
+    wait,
+)
 from .capabilities import Finding, probe, report
 from .clock import FakeClock, MonotonicClock
 from .cyclictest import CyclictestMissing, run_cyclictest
@@ -22,6 +36,8 @@ from .stats import RttestStats, compute_stats, format_rttest, histogram
 from .wait import Hybrid, Sleep, Spin, WaitStrategy
 
 __all__ = [
+    "capabilities", "clock", "cyclictest", "disturb", "loop", "options", "permissions", "plot",
+    "results_file", "settings", "stats", "wait",
     "STOP", "CyclictestMissing", "FakeClock", "Finding", "Hybrid", "LoopResult", "MonotonicClock",
     "PeriodicLoop", "ResultsData", "RttestOptions", "RttestStats", "RttestUsageError", "SettingReport",
     "Sleep", "Spin", "Tick", "WaitStrategy", "compute_stats", "format_rttest", "histogram",

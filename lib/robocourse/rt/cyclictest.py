@@ -62,9 +62,9 @@ class CyclictestResult:
 
         return compute_stats(self.latency_ns)
 
-    def summary(self) -> str:
+    def summary(self, label: str | None = None) -> str:
         s = self.stats()
-        return (f"{'cyclictest (C)':<20} n={s.iterations:<6} p50={s.p50 / 1000:8.1f} us  "
+        return (f"{label or 'cyclictest (C)':<22} n={s.iterations:<6} p50={s.p50 / 1000:8.1f} us  "
                 f"p99={s.p99 / 1000:8.1f} us  p99.9={s.p999 / 1000:8.1f} us  "
                 f"max={s.max_latency / 1000:8.1f} us")
 

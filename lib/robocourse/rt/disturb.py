@@ -9,6 +9,7 @@ manager running busy processes pinned to a CPU.
 
 from __future__ import annotations
 
+import collections
 import gc
 import logging
 import mmap
@@ -116,21 +117,22 @@ class HeapGrowth:
 
 
 class GcPressure:
-    """Keep ``live`` container objects alive and create cyclic garbage each iteration.
+    """A large live state plus a rolling window of recent objects: the gc's worst case.
 
-    The cycles trigger the collector; every so often it runs a full (oldest-generation)
-    collection that walks all ``live`` objects: tens of ms with a million of them, unless
-    they were moved out of its reach with gc.freeze().
+    ``live`` containers stay alive the whole time (a map, a model, a history). Each iteration
+    creates ``per_iteration`` small containers and keeps the last ``window`` iterations' worth
+    (recent messages, say): they survive into the oldest generation, and every so often CPython
+    runs a *full* collection, which walks all ``live`` objects too. gc.freeze() takes the live
+    state out of that walk.
     """
 
-    def __init__(self, live: int = 300_000, cycles_per_iteration: int = 200):
+    def __init__(self, live: int = 300_000, per_iteration: int = 200, window: int = 200):
         self.live = [[i] for i in range(int(live))]
-        self.cycles = int(cycles_per_iteration)
+        self.per_iteration = int(per_iteration)
+        self.recent: collections.deque = collections.deque(maxlen=int(window))
 
     def __call__(self, tick=None):
-        for _ in range(self.cycles):
-            a: list = []
-            a.append(a)
+        self.recent.append([[] for _ in range(self.per_iteration)])
         return None
 
     @staticmethod
@@ -139,6 +141,32 @@ class GcPressure:
         t = time.perf_counter()
         gc.collect()
         return time.perf_counter() - t
+
+
+class GcPauses:
+    """``with GcPauses() as p:`` records the duration of every collection (gc.callbacks)."""
+
+    def __init__(self):
+        self.pauses: list[tuple[int, float]] = []
+        self._t0 = 0.0
+
+    def _callback(self, phase, info):
+        if phase == "start":
+            self._t0 = time.perf_counter()
+        else:
+            self.pauses.append((info["generation"], time.perf_counter() - self._t0))
+
+    def __enter__(self):
+        gc.callbacks.append(self._callback)
+        return self
+
+    def __exit__(self, *exc):
+        gc.callbacks.remove(self._callback)
+        return False
+
+    def full(self) -> list[float]:
+        """Durations (s) of the full (generation 2) collections."""
+        return [d for g, d in self.pauses if g == 2]
 
 
 class LogEveryIteration:

@@ -7,7 +7,10 @@ negative = woke early) *before* calling the user callback, runs the callback, th
 deltas of ``getrusage(RUSAGE_THREAD)`` minor/major page faults. Deadlines never slip: a late
 iteration shows up as latency in the following samples, never as drift.
 
-An *overrun* is an iteration whose callback finished after the next deadline.
+An *overrun* is an iteration whose callback finished after the next deadline. Because the
+latency is sampled before the callback, the callback's own duration never shows in its own
+sample; it is stored separately as ``busy_ns`` (wake-up to callback end), so
+``latency_ns + busy_ns`` is the iteration's response time.
 A callback stops the loop by calling ``loop.stop()`` or returning :data:`STOP`.
 ``iterations <= 0`` runs until stopped (rttest's -i 0): statistics are then accumulated
 on the fly and only the most recent ``keep_last`` samples are kept.
@@ -70,6 +73,7 @@ class LoopResult:
     wake_ns: np.ndarray
     minor_pagefaults: np.ndarray
     major_pagefaults: np.ndarray
+    busy_ns: np.ndarray
     overruns: int
     overrun_iterations: list[int]
     iterations: int
@@ -112,9 +116,10 @@ class LoopResult:
         write_results(path, self.latency_ns, self.minor_pagefaults, self.major_pagefaults,
                       self.period_ns, first_iteration=self.first_iteration)
 
-    def summary(self) -> str:
+    def summary(self, label: str | None = None) -> str:
+        """One line: label (default the wait strategy), percentiles, max, overruns."""
         s = self.stats()
-        return (f"{self.strategy:<20} n={s.iterations:<6} p50={s.p50 / 1000:8.1f} us  "
+        return (f"{label or self.strategy:<22} n={s.iterations:<6} p50={s.p50 / 1000:8.1f} us  "
                 f"p99={s.p99 / 1000:8.1f} us  p99.9={s.p999 / 1000:8.1f} us  "
                 f"max={s.max_latency / 1000:8.1f} us  overruns={s.overruns}")
 
@@ -159,6 +164,7 @@ class PeriodicLoop:
         wake = array.array("q", bytes(8 * size))
         minflt = array.array("q", bytes(8 * size))
         majflt = array.array("q", bytes(8 * size))
+        busy = array.array("q", bytes(8 * size))
         running = None if bounded else RunningStats()
         overrun_iterations: list[int] = []
         self._stop = False
@@ -190,7 +196,9 @@ class PeriodicLoop:
                     tick.latency_ns = latency
                     if callback(tick) is stop_sentinel:
                         self._stop = True
-                if now() > deadline + period:
+                end = now()
+                busy[slot] = end - t
+                if end > deadline + period:
                     overrun_iterations.append(k)
                 if count_faults:
                     cur_min, cur_maj = _faults()
@@ -223,7 +231,7 @@ class PeriodicLoop:
 
         first = 0 if bounded or k <= size else k - size
         return LoopResult(period, start, str(self.wait), arr(lat), arr(wake), arr(minflt), arr(majflt),
-                          len(overrun_iterations), overrun_iterations, k, self.iterations,
+                          arr(busy), len(overrun_iterations), overrun_iterations, k, self.iterations,
                           stopped and (not bounded or k < self.iterations), init_min, init_maj, first,
                           running)
 

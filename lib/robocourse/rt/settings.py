@@ -280,14 +280,19 @@ def prefault_stack(size: int = 1024 * 1024, quiet: bool = False) -> SettingRepor
                          f"({after[0] - before[0]} minor faults taken now, not in the loop)")
 
 
-def prefault_heap(max_size: int = 64 * 1024 * 1024, quiet: bool = False) -> SettingReport:
-    """rttest's dynamic prefault: keep freed heap mapped, then fault in heap until no new faults.
+def prefault_heap(size: int = 64 * 1024 * 1024, until_no_faults: bool = False,
+                  quiet: bool = False) -> SettingReport:
+    """Fault in ``size`` bytes of malloc heap and keep it mapped (rttest's dynamic prefault).
 
     mallopt(M_TRIM_THRESHOLD, -1) and mallopt(M_MMAP_MAX, 0) make glibc serve big blocks from
-    the heap and never give freed memory back; then 64-page chunks are malloc'ed and zeroed
-    until a chunk costs no new page fault (chunks past ``max_size`` are freed at once, so the
-    next one reuses them); finally all chunks are freed, staying mapped for later malloc()s
-    (numpy arrays, bytes, big lists). Works without privileges; only mlockall needs memlock.
+    the heap and never give freed memory back; then 64-page chunks are malloc'ed and zeroed,
+    and finally all freed: they stay mapped for later malloc()s (numpy arrays, bytes, big
+    lists). Works without privileges; only mlockall needs memlock.
+
+    ``until_no_faults=True`` is rttest's exact rule: stop at the first chunk that costs no new
+    page fault, with ``size`` as the cap (-d). That stops at once when the heap already holds
+    free pages (or when mlockall(MCL_FUTURE) populated them), so by default robocourse faults
+    in the whole ``size``, which makes the result independent of what ran before.
     """
     if _LIBC is None:
         return _fail(SettingReport("heap prefault", False, "libc not found",
@@ -308,37 +313,37 @@ def prefault_heap(max_size: int = 64 * 1024 * 1024, quiet: bool = False) -> Sett
     total = 0
     faults = 0
     prev = _faults_self()
-    new = (1, 1)
     try:
-        while new[0] > 0 or new[1] > 0:
+        while total < size:
             ptr = malloc(chunk)
             if not ptr:
                 for p in kept:
                     free(p)
+                kept.clear()
                 unlock_memory()
                 return _fail(SettingReport("heap prefault", False, f"malloc failed after {total // 1024} KiB",
-                                           "malloc failed while prefaulting the heap.\nUnlocking memory and continuing."),
-                             quiet)
+                                           "malloc failed while prefaulting the heap.\n"
+                                           "Unlocking memory and continuing."), quiet)
             ctypes.memset(ptr, 0, chunk)
             total += chunk
-            if total >= max_size:
-                free(ptr)
-            else:
-                kept.append(ptr)
+            kept.append(ptr)
             cur = _faults_self()
-            new = (cur[0] - prev[0], cur[1] - prev[1])
-            faults += new[0] + new[1]
+            new = (cur[0] - prev[0]) + (cur[1] - prev[1])
+            faults += new
             prev = cur
+            if until_no_faults and new == 0:
+                break
     finally:
         for p in kept:
             free(p)
+    rule = "until a chunk took no fault (rttest's rule)" if until_no_faults else "all of it"
     return SettingReport("heap prefault", True,
-                         f"{min(total, max_size) // 1024} KiB of heap faulted in ({faults} page faults now, "
-                         "not in the loop); freed memory stays mapped (M_TRIM_THRESHOLD -1, M_MMAP_MAX 0)")
+                         f"{total // 1024} KiB of heap faulted in, {rule}: {faults} page faults now, "
+                         "not in the loop; freed memory stays mapped (M_TRIM_THRESHOLD -1, M_MMAP_MAX 0)")
 
 
 def lock_and_prefault(stack_size: int = 1024 * 1024, heap_size: int = 64 * 1024 * 1024,
-                      quiet: bool = False) -> list[SettingReport]:
+                      until_no_faults: bool = False, quiet: bool = False) -> list[SettingReport]:
     """rttest's ``rttest_lock_and_prefault_dynamic`` + ``rttest_prefault_stack``.
 
     Like the seed: if mlockall fails it prints "Couldn't lock all cached virtual memory." and
@@ -346,7 +351,7 @@ def lock_and_prefault(stack_size: int = 1024 * 1024, heap_size: int = 64 * 1024 
     removes the faults from the loop for as long as the pages are not swapped out).
     """
     reports = [lock_memory(quiet=quiet)]
-    reports.append(prefault_heap(heap_size, quiet=quiet))
+    reports.append(prefault_heap(heap_size, until_no_faults=until_no_faults, quiet=quiet))
     reports.append(prefault_stack(stack_size, quiet=quiet))
     return reports
 
