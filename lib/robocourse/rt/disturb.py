@@ -126,7 +126,7 @@ class GcPressure:
     state out of that walk.
     """
 
-    def __init__(self, live: int = 300_000, per_iteration: int = 200, window: int = 200):
+    def __init__(self, live: int = 300_000, per_iteration: int = 500, window: int = 300):
         self.live = [[i] for i in range(int(live))]
         self.per_iteration = int(per_iteration)
         self.recent: collections.deque = collections.deque(maxlen=int(window))
