@@ -89,6 +89,8 @@ def meets(lat, period):
     ("ch01.which_knob", (KNOB_FOR,), True, "every tail"),
     ("ch01.which_knob", ({**KNOB_FOR, "gc pause": "more iterations"},), False, "gc.freeze() moves"),
     ("ch01.which_knob", ({},), False, "missing"),
+    ("ch01.which_knob", (lambda: KNOB_FOR,), True, "every tail"),
+    ("ch01.which_knob", (not_implemented,), False, "not implemented yet"),
     ("ch01.rttest_stats", (not_implemented,), False, "not implemented yet"),
     ("ch01.drift_free_loop", (not_implemented,), False, "not implemented yet"),
 ])

@@ -174,7 +174,9 @@ def check_budget(controller_budget_ns, meets_5_percent):
 
 @register("ch01.which_knob", weight=1, time_limit=5)
 def check_which_knob(knob_for):
-    """knob_for: dict tail cause -> the knob that removes it (from KNOBS)."""
+    """knob_for: dict tail cause -> the knob that removes it (from KNOBS), or a function returning it."""
+    if callable(knob_for):
+        knob_for = knob_for()
     if not isinstance(knob_for, dict):
         raise CheckFailed("knob_for must be a dict {tail cause: knob}")
     missing = [t for t in TAILS if t not in knob_for]
