@@ -108,6 +108,16 @@ def main(argv=None) -> int:
     print()
     print(f"python hybrid p99 / cyclictest p99: median {ratio:.2f} (rounds: {', '.join(f'{x:.2f}' for x in ratios)}); "
           f"goal <= 1.0: {'met' if ratio <= 1.0 else 'NOT met'}")
+    spin_max = float(np.median([r["max"] for r in results[names[3]]]))
+    if privileged and spin_max > 10 * period_ns:
+        try:
+            runtime = int(Path("/proc/sys/kernel/sched_rt_runtime_us").read_text())
+            rt_period = int(Path("/proc/sys/kernel/sched_rt_period_us").read_text())
+            print(f"python spin never sleeps: under SCHED_FIFO the kernel's RT throttling "
+                  f"(sched_rt_runtime_us {runtime} of {rt_period}) stops it for up to "
+                  f"{(rt_period - runtime) / 1000:.0f} ms each second, hence its {spin_max / 1e6:.1f} ms max")
+        except (OSError, ValueError):
+            pass
     settings.unlock_memory()
     return 0
 
