@@ -30,6 +30,9 @@ def register(sub):
     q.set_defaults(func=run_plot)
 
 
+DEFAULT_HEAP = 64 * 1024 * 1024
+
+
 def _heap_cap(requested: int) -> tuple[int, str]:
     """rttest's default heap prefault cap is 8 GiB; never take more than a quarter of free RAM."""
     try:
@@ -58,7 +61,8 @@ def run_rttest(args) -> int:
         print("  -t P      real-time priority 1..98 (default 80)")
         print("  -s POL    fifo or rr (default rr)")
         print("  -m S      stack prefault, gb/mb/kb/b (bare number = MB; default 1mb)")
-        print("  -d S      heap prefault cap, same units (default 8gb, capped to a quarter of free RAM)")
+        print("  -d S      heap prefault cap, same units (rttest: 8gb; robocourse uses 64mb unless -d is given;")
+        print("            never more than a quarter of MemAvailable)")
         print("  -f FILE   write rttest's results file")
         print("  --wait W  sleep, hybrid or spin (default hybrid); --spin T spin window (default 200us)")
         print("  --cpu N   pin the loop to CPU N")
@@ -70,7 +74,12 @@ def run_rttest(args) -> int:
         return 2
     if opts.cpu is not None:
         print(settings.set_affinity(opts.cpu))
-    heap, note = _heap_cap(opts.heap_size)
+    if any(a.startswith("-d") for a in argv):
+        heap, note = _heap_cap(opts.heap_size)
+    else:
+        heap, note = min(opts.heap_size, DEFAULT_HEAP), (
+            f"heap prefault: {DEFAULT_HEAP >> 20} MiB. rttest's default cap is 8 GiB, and after mlockall "
+            "its rule faults in (and locks) all of it; pass -d 8gb to do exactly that")
     if note:
         print(note)
     for r in settings.lock_and_prefault(opts.stack_size, heap, until_no_faults=True):
