@@ -125,3 +125,26 @@ def test_report_line_shows_fix_only_on_failure():
 
     assert "fix" not in str(SettingReport("x", True, "fine", fix="do this"))
     assert "fix: do this" in str(SettingReport("x", False, "bad", fix="do this"))
+
+
+PREFAULT = textwrap.dedent("""
+    import sys
+    sys.path.insert(0, LIB)
+    import robocourse.rt as rt
+    from robocourse.rt import settings
+    from robocourse.rt.disturb import HeapGrowth
+    before = rt.PeriodicLoop(1_000_000, 300, wait=rt.Sleep()).run(HeapGrowth(64 * 1024, keep=100))
+    report = settings.prefault_heap(32 << 20)
+    after = rt.PeriodicLoop(1_000_000, 300, wait=rt.Sleep()).run(HeapGrowth(64 * 1024, keep=100))
+    print(report.ok, before.stats().minor_pagefaults, after.stats().minor_pagefaults)
+""").replace("LIB", repr(LIB))
+
+
+def test_heap_prefault_takes_the_growing_heaps_faults_out_of_the_loop():
+    # a fresh process, so glibc's heap and settings are the defaults; no privilege needed
+    proc = subprocess.run([sys.executable, "-c", PREFAULT], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    ok, before, after = proc.stdout.split()
+    assert ok == "True"
+    assert int(before) >= 1000  # 100 x 64 KiB of new heap = 1600 pages first touched in the loop
+    assert int(after) <= 50  # the same allocations now reuse prefaulted, still-mapped heap
