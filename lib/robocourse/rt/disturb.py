@@ -18,7 +18,8 @@ import subprocess
 import sys
 import time
 
-_BUSY = "import os, sys\nos.sched_setaffinity(0, {int(a) for a in sys.argv[1:]})\nwhile True:\n    pass\n"
+_BUSY = ("import os, sys\nif hasattr(os, 'sched_setaffinity'):\n    os.sched_setaffinity(0, {int(a) for a in sys.argv[1:]})\n"
+         "while True:\n    pass\n")
 
 
 class CpuLoad:
@@ -29,7 +30,8 @@ class CpuLoad:
     """
 
     def __init__(self, cpu: int | None = None, processes: int = 1):
-        allowed = sorted(os.sched_getaffinity(0))
+        allowed = (sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
+                   else list(range(os.cpu_count() or 1)))
         if cpu is None:
             cpu = allowed[-1]
         if cpu not in allowed:

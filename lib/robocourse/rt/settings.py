@@ -100,8 +100,17 @@ def _fail(report: SettingReport, quiet: bool) -> SettingReport:
 
 # -- scheduling -------------------------------------------------------------------------------
 
+def allowed_cpus() -> list[int]:
+    """The CPUs this thread may run on (all CPUs where the OS cannot say)."""
+    if hasattr(os, "sched_getaffinity"):
+        return sorted(os.sched_getaffinity(0))
+    return list(range(os.cpu_count() or 1))
+
+
 def current_scheduling() -> tuple[str, int]:
-    """(policy name, priority) of the calling thread."""
+    """(policy name, priority) of the calling thread ("unknown" off Linux)."""
+    if not hasattr(os, "sched_getscheduler"):
+        return "unknown", 0
     policy = os.sched_getscheduler(0)
     names = {os.SCHED_FIFO: "SCHED_FIFO", os.SCHED_RR: "SCHED_RR", os.SCHED_OTHER: "SCHED_OTHER"}
     for attr in ("SCHED_BATCH", "SCHED_IDLE"):
@@ -146,6 +155,8 @@ def _timer_slack() -> int | None:
 
 def reset_scheduling(policy: str = "SCHED_OTHER", priority: int = 0) -> None:
     """Back to SCHED_OTHER (or a saved policy); always allowed when lowering."""
+    if not hasattr(os, "sched_setscheduler"):
+        return
     pol = {"SCHED_FIFO": os.SCHED_FIFO, "SCHED_RR": os.SCHED_RR}.get(policy, os.SCHED_OTHER)
     with contextlib.suppress(OSError):
         os.sched_setscheduler(0, pol, os.sched_param(priority if pol != os.SCHED_OTHER else 0))
@@ -156,6 +167,9 @@ def reset_scheduling(policy: str = "SCHED_OTHER", priority: int = 0) -> None:
 def set_affinity(cpus, quiet: bool = False) -> SettingReport:
     """sched_setaffinity for the calling thread; ``cpus`` an int or a set of CPU numbers."""
     wanted = {cpus} if isinstance(cpus, int) else set(cpus)
+    if not hasattr(os, "sched_setaffinity"):
+        return _fail(SettingReport("affinity", False, "not supported on this OS",
+                                   "Couldn't set CPU affinity: not supported on this OS"), quiet)
     allowed = os.sched_getaffinity(0)
     try:
         os.sched_setaffinity(0, wanted)
@@ -200,8 +214,9 @@ def unlock_memory() -> None:
     """munlockall() and glibc's default trim/mmap settings (rttest_finish does munlockall)."""
     if _LIBC is not None:
         _LIBC.munlockall()
-        _LIBC.mallopt(M_TRIM_THRESHOLD, DEFAULT_TRIM_THRESHOLD)
-        _LIBC.mallopt(M_MMAP_MAX, DEFAULT_MMAP_MAX)
+        if hasattr(_LIBC, "mallopt"):
+            _LIBC.mallopt(M_TRIM_THRESHOLD, DEFAULT_TRIM_THRESHOLD)
+            _LIBC.mallopt(M_MMAP_MAX, DEFAULT_MMAP_MAX)
 
 
 def memory_locked() -> bool:
@@ -295,9 +310,9 @@ def prefault_heap(size: int = 64 * 1024 * 1024, until_no_faults: bool = False,
     populates each new locked chunk, and that counts as faults: measured on Linux 6.18). So by
     default robocourse faults in exactly ``size``, independent of what ran before.
     """
-    if _LIBC is None:
-        return _fail(SettingReport("heap prefault", False, "libc not found",
-                                   "Couldn't prefault the heap: libc not found"), quiet)
+    if _LIBC is None or not hasattr(_LIBC, "mallopt"):
+        return _fail(SettingReport("heap prefault", False, "glibc's mallopt is not available here",
+                                   "Couldn't prefault the heap: this C library has no mallopt (not glibc)"), quiet)
     if _LIBC.mallopt(M_TRIM_THRESHOLD, -1) == 0:
         return _fail(SettingReport("heap prefault", False, "mallopt(M_TRIM_THRESHOLD) refused",
                                    "mallopt for trim threshold failed"), quiet)
@@ -394,7 +409,7 @@ def realtime(policy: str | None = "fifo", priority: int = RT_PRIORITY, cpus=None
     if gc_mode not in ("freeze", "disable", None):
         raise ValueError(f"gc_mode {gc_mode!r}: use 'freeze', 'disable' or None")
     old_policy, old_prio = current_scheduling()
-    old_affinity = os.sched_getaffinity(0)
+    old_affinity = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
     was_enabled = gc.isenabled()
     reports: list[SettingReport] = []
     try:
@@ -411,8 +426,9 @@ def realtime(policy: str | None = "fifo", priority: int = RT_PRIORITY, cpus=None
         yield reports
     finally:
         reset_scheduling(old_policy, old_prio)
-        with contextlib.suppress(OSError):
-            os.sched_setaffinity(0, old_affinity)
+        if old_affinity is not None:
+            with contextlib.suppress(OSError):
+                os.sched_setaffinity(0, old_affinity)
         if lock:
             unlock_memory()
         if gc_mode == "freeze":
