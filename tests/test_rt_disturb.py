@@ -38,12 +38,13 @@ def test_cpu_load_pins_busy_processes_and_cleans_up():
 def test_gc_pressure_survivors_reach_the_oldest_generation_and_pauses_are_recorded():
     pressure = GcPressure(live=1000, per_iteration=50, window=10)
     with GcPauses() as pauses:
-        for _ in range(200):
+        for _ in range(200):  # 51 new cyclic containers each: > 14 x the young threshold of 700
             pressure()
+        young = [g for g, _ in pauses.pauses]
         gc.collect()
     assert len(pressure.recent) == 10 and len(pressure.live) == 1000
+    assert young.count(0) >= 5  # dropped cycles are not freed at once, so young collections must run
     assert len(pauses.full()) >= 1 and all(d >= 0 for d in pauses.full())
-    assert {g for g, _ in pauses.pauses} >= {0, 2}
     assert GcPressure.time_full_collection() > 0
 
 

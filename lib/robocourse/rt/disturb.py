@@ -122,19 +122,23 @@ class GcPressure:
     """A large live state plus a rolling window of recent objects: the gc's worst case.
 
     ``live`` containers stay alive the whole time (a map, a model, a history). Each iteration
-    creates ``per_iteration`` small containers and keeps the last ``window`` iterations' worth
-    (recent messages, say): they survive into the oldest generation, and every so often CPython
-    runs a *full* collection, which walks all ``live`` objects too. gc.freeze() takes the live
-    state out of that walk.
+    creates ``per_iteration`` small self-referencing containers and keeps the last ``window``
+    iterations' worth (recent messages, say). Because they are cycles, dropping them does not
+    free them: CPython's allocation count keeps growing, young collections run regularly,
+    the survivors reach the oldest generation, and every so often a *full* collection walks
+    all ``live`` objects too. gc.freeze() takes the live state out of that walk.
     """
 
-    def __init__(self, live: int = 300_000, per_iteration: int = 500, window: int = 300):
+    def __init__(self, live: int = 300_000, per_iteration: int = 100, window: int = 200):
         self.live = [[i] for i in range(int(live))]
         self.per_iteration = int(per_iteration)
         self.recent: collections.deque = collections.deque(maxlen=int(window))
 
     def __call__(self, tick=None):
-        self.recent.append([[] for _ in range(self.per_iteration)])
+        batch = [[] for _ in range(self.per_iteration)]
+        for node in batch:
+            node.append(node)  # a reference cycle (think parent <-> child): only the gc can free it
+        self.recent.append(batch)
         return None
 
     @staticmethod
