@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from robocourse.grading.checks import get, run_check
 from robocourse.rt.checks import KNOBS, TAILS
 

@@ -5,6 +5,7 @@ import shutil
 
 import numpy as np
 import pytest
+
 from robocourse.rt import cyclictest as ct
 
 SUMMARY = "T: 0 ( 9923) P:80 I:1000 C:   2000 Min:     14 Act:   26 Avg:   25 Max:    2915\n"

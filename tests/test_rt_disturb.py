@@ -6,6 +6,7 @@ import os
 import time
 
 import pytest
+
 from robocourse.rt import STOP, FakeClock, PeriodicLoop, Sleep
 from robocourse.rt.disturb import (
     AllocationStorm,

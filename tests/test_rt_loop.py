@@ -4,6 +4,7 @@ clock only counts, signs and structure are asserted, never speed."""
 
 import numpy as np
 import pytest
+
 from robocourse.rt import STOP, FakeClock, Hybrid, MonotonicClock, PeriodicLoop, Sleep, Spin
 from robocourse.rt.disturb import FreshMemory
 

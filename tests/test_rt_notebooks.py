@@ -6,6 +6,7 @@
 from pathlib import Path
 
 import nbformat
+
 from robocourse.grading import exercises
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,6 +1,7 @@
 """robocourse.rt.options: rttest's options, units, defaults, and a clear error for every bad value."""
 
 import pytest
+
 from robocourse.rt.options import (
     GIB,
     KIB,

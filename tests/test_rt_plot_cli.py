@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from robocourse.cli import main
 from robocourse.rt.plot import rttest_plot
 from robocourse.rt.results_file import read_results, write_results

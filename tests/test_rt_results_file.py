@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from robocourse.rt.results_file import HEADER, format_results, read_results, write_results
 
 

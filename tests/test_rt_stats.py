@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+
 from robocourse.rt.stats import RunningStats, compute_stats, format_rttest, histogram
 
 latencies = st.lists(st.integers(min_value=-10**6, max_value=10**8), min_size=1, max_size=500)
