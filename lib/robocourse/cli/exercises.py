@@ -20,8 +20,11 @@ def run(args) -> int:
     if not (root / "solutions").is_dir():
         raise FileNotFoundError(f"{root / 'solutions'} not found; run from the course folder or pass --root")
     if args.action == "build":
-        for path in exercises.build(root):
+        changed = exercises.build(root)
+        for path in changed:
             print(f"wrote {path}")
+        total = len(list((root / "solutions").glob("*.ipynb")))
+        print(f"{len(changed)} exercise notebook(s) regenerated, {total - len(changed)} already up to date")
         return 0
     problems = exercises.check(root)
     for p in problems:

@@ -24,9 +24,10 @@ import signal
 import threading
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 RESULTS_ENV = "ROBOCOURSE_GRADING_RESULTS"
 EXTRA_CHECKS_ENV = "ROBOCOURSE_EXTRA_CHECKS"
@@ -125,27 +126,35 @@ def discover(extra_dirs: list[str | os.PathLike] | None = None) -> dict[str, Che
     return dict(_REGISTRY)
 
 
-_LOADED_FILES: set[Path] = set()
+_DIR_CHECKS: dict[Path, list[str]] = {}
 
 
 def load_check_dir(directory) -> list[str]:
-    """Import every ``*.py`` file of an instructor's check directory; return the new check names."""
+    """Import every ``*.py`` file of an instructor's check directory; return its check names.
+
+    Each directory is imported once per process; later calls return the same names.
+    """
     path = Path(directory)
     if not path.is_dir():
         raise FileNotFoundError(
             f"extra checks directory {str(path)!r} does not exist; pass a folder of .py files "
             "that use @robocourse.grading.register(...)"
         )
-    before = set(_REGISTRY)
-    for file in sorted(path.glob("*.py")):
-        file = file.resolve()
-        if file in _LOADED_FILES:
-            continue
-        spec = importlib.util.spec_from_file_location(f"robocourse_extra_checks.{file.stem}", file)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        _LOADED_FILES.add(file)
-    return sorted(set(_REGISTRY) - before)
+    path = path.resolve()
+    if path not in _DIR_CHECKS:
+        before = set(_REGISTRY)
+        for file in sorted(path.glob("*.py")):
+            spec = importlib.util.spec_from_file_location(f"robocourse_extra_checks.{file.stem}", file)
+            module = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(module)
+        _DIR_CHECKS[path] = sorted(set(_REGISTRY) - before)
+    return list(_DIR_CHECKS[path])
+
+
+def is_library_check(name: str) -> bool:
+    """True for checks shipped in ``robocourse.<chapter>.checks`` (not an instructor's folder)."""
+    chk = _REGISTRY.get(name)
+    return chk is not None and getattr(chk.func, "__module__", "").startswith("robocourse.")
 
 
 def get(name: str) -> Check:

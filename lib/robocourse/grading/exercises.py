@@ -105,7 +105,10 @@ def expected_text(solution: Path) -> str:
 
 
 def build(root: Path | str = ".") -> list[Path]:
-    """Write exercises/ from solutions/; remove exercises without a solution. Return written paths."""
+    """Write exercises/ from solutions/; remove exercises without a solution.
+
+    Returns the paths whose content changed (an up-to-date file is not rewritten).
+    """
     root = Path(root)
     (root / "exercises").mkdir(exist_ok=True)
     written = []
@@ -113,7 +116,7 @@ def build(root: Path | str = ".") -> list[Path]:
         text = expected_text(sol)
         if not ex.exists() or ex.read_text(encoding="utf-8") != text:
             ex.write_text(text, encoding="utf-8")
-        written.append(ex)
+            written.append(ex)
     known = {ex.name for _, ex in _pairs(root)}
     for stale in (root / "exercises").glob("*.ipynb"):
         if stale.name not in known:

@@ -43,6 +43,7 @@ class Grade:
     results: dict = field(default_factory=dict)  # name -> {"points", "weight", "passed", "message"}
     status: str = ""
     seconds: float = 0.0
+    errors: list = field(default_factory=list)  # "cell N: Type: message" from the run
 
     @property
     def points(self) -> float:
@@ -61,16 +62,22 @@ class Grade:
         for name, r in self.results.items():
             mark = "PASS" if r["passed"] else "FAIL"
             lines.append(f"[{mark}] {name} ({r['points']:g}/{r['weight']:g}): {r['message']}")
+        if self.errors:
+            lines += ["", "Errors while running your notebook:"] + [f"  {e}" for e in self.errors]
         return "\n".join(lines) + "\n"
 
 
 def load_assignments(solutions_dir: Path, extra_dirs=()) -> dict[str, Assignment]:
-    registry = checks_mod.discover(list(extra_dirs))
+    registry = checks_mod.discover()
+    # hidden checks: the library's own (declared with uses=...) and those in this call's folders only
+    hidden = {n for n, c in registry.items() if c.uses and checks_mod.is_library_check(n)}
+    for d in extra_dirs:
+        hidden.update(checks_mod.load_check_dir(d))
     out = {}
     for sol in sorted(Path(solutions_dir).glob("*.ipynb")):
         names = checks_in(nbformat.read(sol, as_version=4))
         prefixes = {n.split(".")[0] for n in names}
-        extra = [n for n, c in registry.items() if c.uses and n.split(".")[0] in prefixes and n not in names]
+        extra = [n for n in hidden if n.split(".")[0] in prefixes and n not in names]
         out[sol.stem] = Assignment(sol.stem, sol, names + sorted(extra))
     return out
 
@@ -154,6 +161,7 @@ def grade_one(path: Path, assignment: Assignment | None, student: str, *, time_l
         status = _read_json(status_file)
         recorded = _read_results(results_file)
     g.seconds = time.monotonic() - start
+    g.errors = list(status.get("errors", []))[:20]
     if timed_out:
         g.status = f"stopped after the {time_limit:g} s time limit (an endless loop or a very slow cell)"
     elif status.get("reason"):
@@ -164,7 +172,7 @@ def grade_one(path: Path, assignment: Assignment | None, student: str, *, time_l
     if status.get("output_truncated"):
         g.status = (g.status + "; " if g.status else "") + "output was too large and was truncated"
     for name in assignment.checks:
-        weight = checks_mod._REGISTRY[name].weight if name in checks_mod._REGISTRY else 1.0
+        weight = registry_weight(name)
         if name in recorded:
             r = recorded[name]
             g.results[name] = {"points": float(r["points"]), "weight": weight,
@@ -173,6 +181,11 @@ def grade_one(path: Path, assignment: Assignment | None, student: str, *, time_l
             why = g.status or "its check cell was deleted or never reached"
             g.results[name] = {"points": 0.0, "weight": weight, "passed": False, "message": f"did not run: {why}"}
     return g
+
+
+def registry_weight(name: str) -> float:
+    chk = checks_mod.discover().get(name)
+    return chk.weight if chk else 1.0
 
 
 def _read_json(path: Path) -> dict:

@@ -113,7 +113,10 @@ def main(argv=None) -> int:
                 client.execute_cell(cell, index)
                 for out in cell.get("outputs", []):
                     if out.get("output_type") == "error":
-                        status["errors"].append(f"cell {index}: {out.get('ename')}: {str(out.get('evalue'))[:200]}")
+                        ename, evalue = out.get("ename"), str(out.get("evalue"))[:200]
+                        if ename == "KeyboardInterrupt":  # nbclient interrupts a cell at its timeout
+                            ename, evalue = "CellTimeout", f"interrupted after the {args.cell_timeout:g} s cell time limit"
+                        status["errors"].append(f"cell {index}: {ename}: {evalue}")
         status["ok"] = True
     except DeadKernelError:
         status["reason"] = "the kernel died (os._exit, a crash, or the memory limit); checks after that point did not run"

@@ -129,24 +129,25 @@ def probe(try_calls: bool = True) -> list[Finding]:
     python = os.path.realpath(sys.executable)
     caps = effective_capabilities()
     out: list[Finding] = []
-    root = os.geteuid() == 0
-    out.append(Finding("user", f"{user} (uid {os.geteuid()}{', root' if root else ''})", True))
+    nice, ipc = bool(caps >> CAP_SYS_NICE & 1), bool(caps >> CAP_IPC_LOCK & 1)
+    out.append(Finding("user", f"{user} (uid {os.geteuid()}; CAP_SYS_NICE {'yes' if nice else 'no'}, "
+                               f"CAP_IPC_LOCK {'yes' if ipc else 'no'})", True))
 
     soft, hard = resource.getrlimit(resource.RLIMIT_RTPRIO)
-    rtprio_ok = root or bool(caps >> CAP_SYS_NICE & 1) or soft >= 1
+    rtprio_ok = nice or soft >= 1
     out.append(Finding(
         "RLIMIT_RTPRIO", f"soft {_limit_text(soft)}, hard {_limit_text(hard)}"
-        + (" (root/CAP_SYS_NICE overrides it)" if (root or caps >> CAP_SYS_NICE & 1) else ""),
+        + (" (CAP_SYS_NICE overrides it)" if nice else ""),
         rtprio_ok,
         f"add to /etc/security/limits.conf:  {user} - rtprio {RT_PRIORITY}\n"
         "then log out and in (never 99: kernel watchdog threads run there)\n"
         f"or, for this Python only: sudo setcap cap_sys_nice+ep {python}"))
 
     soft, hard = resource.getrlimit(resource.RLIMIT_MEMLOCK)
-    mem_ok = root or bool(caps >> CAP_IPC_LOCK & 1) or soft == resource.RLIM_INFINITY
+    mem_ok = ipc or soft == resource.RLIM_INFINITY
     out.append(Finding(
         "RLIMIT_MEMLOCK", f"soft {_limit_text(soft)} B, hard {_limit_text(hard)} B"
-        + (" (root/CAP_IPC_LOCK overrides it)" if (root or caps >> CAP_IPC_LOCK & 1) else ""),
+        + (" (CAP_IPC_LOCK overrides it)" if ipc else ""),
         mem_ok,
         f"add to /etc/security/limits.conf:  {user} - memlock -1\n"
         "(or a size in kB, e.g. 1048576), then log out and in\n"
