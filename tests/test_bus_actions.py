@@ -3,6 +3,7 @@
 import itertools
 
 import pytest
+
 from robocourse.bus import Context, SingleThreadedExecutor
 from robocourse.bus import introspection as ros2
 from robocourse.bus.action import (

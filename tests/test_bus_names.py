@@ -1,6 +1,7 @@
 """ROS 2 naming rules and expansion."""
 
 import pytest
+
 from robocourse.bus import Context, InvalidNameError
 from robocourse.bus.names import (
     InvalidNamespaceException,

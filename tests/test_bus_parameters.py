@@ -1,6 +1,7 @@
 """Parameters: declare/get/set, types, descriptors, ranges, read-only, callbacks, overrides."""
 
 import pytest
+
 from robocourse.bus import (
     Context,
     FloatingPointRange,

@@ -3,6 +3,7 @@
 import struct
 
 import pytest
+
 from robocourse.bus import (
     Context,
     HistoryPolicy,

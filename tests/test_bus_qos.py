@@ -4,6 +4,7 @@ deadline, liveliness and matched events."""
 import math
 
 import pytest
+
 from robocourse.bus import (
     Context,
     DurabilityPolicy,

@@ -3,6 +3,7 @@
 import numpy as np
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
+
 from robocourse.bus import Context, DurabilityPolicy, QoSProfile, SingleThreadedExecutor
 from robocourse.bus.recording import read_recording, record, replay
 from robocourse.msgs import full_definition

@@ -3,6 +3,7 @@
 import threading
 
 import pytest
+
 from robocourse.bus import (
     Context,
     DeadlockError,

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 from mcap_ros2._dynamic import generate_dynamic, serialize_dynamic
+
 from robocourse import msgs
 from robocourse.msgs import (
     MessageDefinitionError,
