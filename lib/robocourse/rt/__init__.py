@@ -1,8 +1,46 @@
 """robocourse.rt: timing a periodic loop the way rttest and cyclictest do.
 
-``capabilities`` tells what this machine allows for real-time work (and how to fix it).
+- ``loop``: :class:`PeriodicLoop` with absolute deadlines and a wait strategy (``wait``:
+  :class:`Sleep`, :class:`Hybrid`, :class:`Spin`); latency per iteration, page faults, overruns.
+- ``stats``: rttest's statistics (population stddev) plus percentiles and a histogram.
+- ``options``: rttest's -i -u -t -s -m -d -f with clear usage errors.
+- ``results_file`` / ``plot``: rttest's results file and rttest_plot's four figures.
+- ``settings``: scheduling, affinity, mlockall, prefaulting, gc, each with an honest report.
+- ``disturb``: CPU load, allocation storms, gc pressure, fresh memory, logging in the loop.
+- ``cyclictest``: the C reference on the same machine.
+- ``capabilities``: what this machine allows (and how to fix it).
 """
 
+from . import (
+    capabilities,
+    clock,
+    cyclictest,
+    disturb,
+    loop,
+    options,
+    permissions,
+    plot,
+    results_file,
+    settings,
+    stats,
+    wait,
+)
 from .capabilities import Finding, probe, report
+from .clock import FakeClock, MonotonicClock
+from .cyclictest import CyclictestMissing, run_cyclictest
+from .loop import STOP, LoopResult, PeriodicLoop, Tick, run_loop
+from .options import RttestOptions, RttestUsageError, parse_duration, parse_rttest_args, parse_size
+from .results_file import ResultsData, read_results, write_results
+from .settings import SettingReport, lock_and_prefault, realtime, set_affinity, set_scheduling
+from .stats import RttestStats, compute_stats, format_rttest, histogram
+from .wait import Hybrid, Sleep, Spin, WaitStrategy
 
-__all__ = ["Finding", "probe", "report"]
+__all__ = [
+    "capabilities", "clock", "cyclictest", "disturb", "loop", "options", "permissions", "plot",
+    "results_file", "settings", "stats", "wait",
+    "STOP", "CyclictestMissing", "FakeClock", "Finding", "Hybrid", "LoopResult", "MonotonicClock",
+    "PeriodicLoop", "ResultsData", "RttestOptions", "RttestStats", "RttestUsageError", "SettingReport",
+    "Sleep", "Spin", "Tick", "WaitStrategy", "compute_stats", "format_rttest", "histogram",
+    "lock_and_prefault", "parse_duration", "parse_rttest_args", "parse_size", "probe", "read_results",
+    "realtime", "report", "run_cyclictest", "run_loop", "set_affinity", "set_scheduling", "write_results",
+]

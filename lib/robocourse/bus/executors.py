@@ -1,0 +1,569 @@
+"""Executors: who runs the callbacks, on which thread, and when time moves.
+
+rclpy counterparts: ``rclpy.executors.SingleThreadedExecutor`` and ``MultiThreadedExecutor``
+with ``add_node``, ``spin``, ``spin_once(timeout_sec)``, ``spin_until_future_complete``,
+``create_task`` and ``shutdown``. Additions: ``spin_for(seconds)`` and ``spin_until(t)``
+(measured on the simulated clock when the context uses sim time, else on the wall clock), and
+``callback_errors`` (what went wrong in callbacks, with topic and node).
+
+How it works: publishing puts the message in each matched subscription's queue and, if the
+subscription was idle, appends the subscription to its executor's ready queue (no lock in the
+single-threaded case). Each spin iteration runs the earliest due timer, else the next ready
+entity (one message per subscription per turn, round robin). In simulated time, when nothing
+is ready the executor jumps the context's clock to the next timer deadline.
+
+Differences from rclpy: a callback that raises is logged with its topic and node and recorded
+in ``executor.callback_errors``; the executor keeps spinning (rclpy re-raises out of spin).
+"""
+
+from __future__ import annotations
+
+import threading
+import time as _time
+import traceback
+from collections import deque
+
+from robocourse.bus.task import Task
+
+_tls = threading.local()
+
+
+def current_callback():
+    """(executor, entity) of the callback running on this thread, or None."""
+    return getattr(_tls, "current", None)
+
+
+class ExternalShutdownException(Exception):
+    """The context was shut down while spinning (rclpy.executors.ExternalShutdownException)."""
+
+
+class CallbackError:
+    """One exception raised by a callback, with where it happened."""
+
+    def __init__(self, where: str, exception: BaseException, text: str):
+        self.where = where
+        self.exception = exception
+        self.traceback = text
+
+    def __repr__(self):
+        return f"CallbackError({self.where}: {self.exception!r})"
+
+
+class Executor:
+    """Base class; use :class:`SingleThreadedExecutor` or :class:`MultiThreadedExecutor`."""
+
+    def __init__(self, *, context=None):
+        from robocourse.bus.context import get_default_context
+
+        self._context = context if context is not None else get_default_context(create=False)
+        self._nodes = []
+        self._timers = []
+        self._ready = deque()
+        self._sleeping = 0
+        self._is_shutdown = False
+        self._spin_threads = set()
+        self.callback_errors: list[CallbackError] = []
+        self._running = 0
+        self._nodes_lock = threading.Lock()
+        self._done_flag = None
+
+    # ------------------------------------------------------------------ nodes & entities
+    @property
+    def context(self):
+        return self._context
+
+    def add_node(self, node) -> bool:
+        if self._context is None:
+            self._context = node.context
+        elif node.context is not self._context:
+            raise ValueError(
+                f"node {node.get_fully_qualified_name()!r} belongs to another context than this "
+                f"executor; create the executor with context=node.context")
+        with self._nodes_lock:
+            if node in self._nodes:
+                return False
+            if node._executor is not None and node._executor is not self:
+                node._executor.remove_node(node)
+            self._nodes.append(node)
+            node._executor = self
+        self._context._executors.add(self)
+        for ent in node._entities():
+            self._attach(ent)
+        pending, node._pending_tasks = node._pending_tasks, []
+        for task in pending:
+            task._executor = self
+            self._schedule(task)
+        return True
+
+    def remove_node(self, node) -> None:
+        with self._nodes_lock:
+            if node not in self._nodes:
+                return
+            self._nodes.remove(node)
+            node._executor = None
+        for ent in node._entities():
+            self._detach(ent)
+
+    def get_nodes(self):
+        return list(self._nodes)
+
+    def _attach(self, ent) -> None:
+        ent._executor = self
+        if getattr(ent, "_is_timer", False):
+            if ent not in self._timers:
+                self._timers.append(ent)
+            self._wake()
+            return
+        if ent._take_check():
+            self._schedule(ent)
+
+    def _detach(self, ent) -> None:
+        ent._executor = None
+        if getattr(ent, "_is_timer", False):
+            if ent in self._timers:
+                self._timers.remove(ent)
+        else:
+            try:
+                while True:
+                    self._ready.remove(ent)
+            except ValueError:
+                pass
+            ent._scheduled = False
+
+    def _schedule(self, ent) -> None:
+        """Put an entity with work on the ready queue (any thread)."""
+        ent._scheduled = True
+        self._ready.append(ent)
+        if self._sleeping:
+            self._wake()
+
+    def create_task(self, callback, *args, **kwargs) -> Task:
+        """rclpy Executor.create_task: run ``callback(*args)`` (function or coroutine) soon."""
+        task = Task(callback, args, kwargs, executor=self)
+        self._schedule(task)
+        return task
+
+    # ------------------------------------------------------------------ time
+    def _sim(self):
+        ctx = self._context
+        return ctx.sim if ctx is not None else None
+
+    def _now_base(self) -> int:
+        """The executor's time base: simulated ns in sim time, else monotonic ns."""
+        sim = self._sim()
+        return sim.ns if sim is not None else _time.monotonic_ns()
+
+    # ------------------------------------------------------------------ polling
+    def _due_timer(self):
+        best = None
+        best_ns = None
+        for t in self._timers:
+            nxt = t._next_ns
+            if nxt is None:
+                continue
+            if nxt <= t._clock._now_ns() and (best_ns is None or nxt < best_ns):
+                if self._group_free(t):
+                    best, best_ns = t, nxt
+        return best
+
+    def _group_free(self, ent) -> bool:
+        return True
+
+    def _next_deadlines(self):
+        """(ns until the next wall-clock timer or None, absolute ns of next sim timer or None)."""
+        wall = None
+        sim_next = None
+        for t in self._timers:
+            nxt = t._next_ns
+            if nxt is None:
+                continue
+            clock = t._clock
+            if clock.is_simulated:
+                if sim_next is None or nxt < sim_next:
+                    sim_next = nxt
+            else:
+                d = nxt - clock._now_ns()
+                if wall is None or d < wall:
+                    wall = d
+        return wall, sim_next
+
+    def _pop_ready(self):
+        ready = self._ready
+        while ready:
+            ent = ready.popleft()
+            ent._scheduled = False
+            work = ent._take()
+            if ent._take_check() and not ent._scheduled:
+                ent._scheduled = True
+                ready.append(ent)
+            if work is not None:
+                return ent, work
+        return None
+
+    def _poll(self):
+        t = self._due_timer()
+        if t is not None:
+            return t, t._take()
+        if self._ready:
+            return self._pop_ready()
+        return None
+
+    # ------------------------------------------------------------------ waiting
+    def _wait_for_work(self, timeout_ns=None, until_ns=None):
+        """Return (entity, work) or None when the timeout/until passes or on shutdown.
+
+        ``timeout_ns`` and ``until_ns`` are on the executor's time base (sim ns in sim time).
+        """
+        base0 = self._now_base()
+        end = None
+        if timeout_ns is not None:
+            end = base0 + max(0, int(timeout_ns))
+        if until_ns is not None:
+            end = until_ns if end is None else min(end, until_ns)
+        sim = self._sim()
+        done_flag = self._done_flag
+        while True:
+            if self._is_shutdown or (self._context is not None and not self._context.ok()):
+                return None
+            if done_flag is not None and done_flag():
+                return None
+            item = self._poll()
+            if item is not None:
+                return item
+            wall_wait, sim_next = self._next_deadlines()
+            if sim is not None:
+                if self._running:
+                    self._sleep(None)       # another thread is busy: it may publish
+                    continue
+                now = sim.ns
+                if end is not None and now >= end:
+                    return None
+                if sim_next is not None and (end is None or sim_next <= end):
+                    sim.advance_to(sim_next)
+                    continue
+                if end is not None and wall_wait is None and not self._external_waiters():
+                    sim.advance_to(end)      # nothing can happen before `end`: jump there
+                    return None
+                wait = None if wall_wait is None else max(0, wall_wait) / 1e9
+                if end is not None and (wait is None or wait > 0.001):
+                    wait = 0.001   # poll: another thread may complete a future meanwhile
+                self._sleep(wait)
+                continue
+            now = _time.monotonic_ns()
+            if end is not None and now >= end:
+                return None
+            wait = None if wall_wait is None else max(0, wall_wait)
+            if end is not None:
+                rem = end - now
+                wait = rem if wait is None else min(wait, rem)
+            self._sleep(None if wait is None else wait / 1e9)
+
+    def _external_waiters(self) -> bool:
+        return bool(getattr(self, "_future_waiting", False))
+
+    # ------------------------------------------------------------------ running
+    def _run(self, ent, work):
+        prev = getattr(_tls, "current", None)
+        _tls.current = (self, ent)
+        try:
+            ent._execute(work)
+        except Exception as exc:  # noqa: BLE001 - reported, executor keeps running
+            self._report(ent, exc)
+        finally:
+            _tls.current = prev
+
+    def _report(self, ent, exc):
+        where = ent._describe() if hasattr(ent, "_describe") else repr(ent)
+        text = traceback.format_exc()
+        err = CallbackError(where, exc, text)
+        self.callback_errors.append(err)
+        node = getattr(ent, "_node", None)
+        msg = f"Exception in {where}: {type(exc).__name__}: {exc}\n{text.rstrip()}"
+        if node is not None:
+            node.get_logger().error(msg)
+        elif self._context is not None:
+            from robocourse.bus.logging import RcutilsLogger
+
+            RcutilsLogger("executor", self._context).error(msg)
+        if self._context is not None:
+            self._context.callback_errors.append(err)
+
+    def spin_once(self, timeout_sec: float | None = None) -> None:
+        """Run at most one callback, waiting up to ``timeout_sec`` (None: until work)."""
+        self._enter()
+        try:
+            item = self._wait_for_work(None if timeout_sec is None else int(timeout_sec * 1e9))
+            if item is not None:
+                self._execute_item(*item)
+        finally:
+            self._leave()
+
+    def _execute_item(self, ent, work):
+        self._run(ent, work)
+
+    def spin(self) -> None:
+        """Run callbacks until the context is shut down or ``shutdown()`` is called."""
+        self._spin_loop(None)
+
+    def spin_for(self, seconds: float) -> None:
+        """Spin for ``seconds`` of executor time (simulated time if the context uses it).
+
+        In simulated time all callbacks due in the window run, in deadline order, and the
+        clock ends exactly ``seconds`` later; this takes as long as the callbacks, not longer.
+        """
+        self.spin_until(self._now_base() + int(round(seconds * 1e9)))
+
+    def spin_until(self, t_ns: int) -> None:
+        """Spin until the executor time base reaches ``t_ns`` (sim ns or monotonic ns)."""
+        self._spin_loop(int(t_ns))
+
+    def _spin_loop(self, until_ns):
+        self._enter()
+        try:
+            while True:
+                item = self._wait_for_work(None, until_ns)
+                if item is None:
+                    return
+                self._execute_item(*item)
+        finally:
+            self._leave()
+
+    def spin_until_future_complete(self, future, timeout_sec: float | None = None) -> None:
+        """Spin until ``future`` is done or ``timeout_sec`` (executor time) passes."""
+        end = None if timeout_sec is None else self._now_base() + int(timeout_sec * 1e9)
+
+        def wake(_f, ex=self):
+            ex._wake()
+
+        wake._immediate = True
+        future.add_done_callback(wake)
+        self._enter()
+        self._future_waiting = True
+        self._done_flag = future.done
+        try:
+            while not future.done():
+                item = self._wait_for_work(None, end)
+                if item is None:
+                    if future.done() or self._is_shutdown or not self._context.ok():
+                        return
+                    if end is not None and self._now_base() >= end:
+                        return
+                    continue
+                self._execute_item(*item)
+        finally:
+            self._future_waiting = False
+            self._done_flag = None
+            self._leave()
+
+    def _enter(self):
+        tid = threading.get_ident()
+        if tid in self._spin_threads:
+            raise RuntimeError(
+                "this executor is already spinning on this thread: do not call spin*() from "
+                "inside a callback; use call_async / futures instead")
+        self._spin_threads.add(tid)
+
+    def _leave(self):
+        self._spin_threads.discard(threading.get_ident())
+
+    def is_spinning_elsewhere(self) -> bool:
+        return bool(self._spin_threads - {threading.get_ident()})
+
+    def shutdown(self, timeout_sec: float | None = None) -> bool:
+        """Stop spinning (after the running callbacks finish) and detach all nodes."""
+        self._is_shutdown = True
+        self._wake()
+        for node in list(self._nodes):
+            self.remove_node(node)
+        return True
+
+    # per subclass
+    def _sleep(self, seconds):
+        raise NotImplementedError
+
+    def _wake(self):
+        raise NotImplementedError
+
+    @property
+    def num_threads(self) -> int:
+        return 1
+
+
+class SingleThreadedExecutor(Executor):
+    """rclpy.executors.SingleThreadedExecutor: callbacks run one at a time on the spinning thread."""
+
+    def __init__(self, *, context=None):
+        super().__init__(context=context)
+        self._event = threading.Event()
+
+    def _sleep(self, seconds):
+        self._sleeping += 1
+        try:
+            if self._ready or self._is_shutdown:
+                return
+            self._event.wait(seconds)
+            self._event.clear()
+        finally:
+            self._sleeping -= 1
+
+    def _wake(self):
+        self._event.set()
+
+
+class MultiThreadedExecutor(Executor):
+    """rclpy.executors.MultiThreadedExecutor(num_threads): a thread pool runs callbacks.
+
+    Callbacks of one MutuallyExclusiveCallbackGroup (every node's default group) never run
+    at the same time, so parallelism needs ReentrantCallbackGroup or several groups.
+    """
+
+    def __init__(self, num_threads: int | None = None, *, context=None):
+        super().__init__(context=context)
+        import os
+
+        self._num_threads = num_threads or max(2, os.cpu_count() or 2)
+        self._cond = threading.Condition()
+        self._workers = []
+        self._stop = False
+
+    @property
+    def num_threads(self) -> int:
+        return self._num_threads
+
+    def _group_free(self, ent) -> bool:
+        g = ent.callback_group
+        return g is None or g.can_execute(ent)
+
+    def _pop_ready(self):
+        ready = self._ready
+        n = len(ready)
+        for _ in range(n):
+            ent = ready.popleft()
+            ent._scheduled = False
+            g = ent.callback_group
+            if g is not None and not g.can_execute(ent):
+                if ent._take_check():
+                    ent._scheduled = True
+                    ready.append(ent)
+                continue
+            work = ent._take()
+            if ent._take_check() and not ent._scheduled:
+                ent._scheduled = True
+                ready.append(ent)
+            if work is not None:
+                if g is not None:
+                    g.beginning_execution(ent)
+                return ent, work
+        return None
+
+    def _poll(self):
+        t = self._due_timer()
+        if t is not None:
+            work = t._take()
+            g = t.callback_group
+            if g is not None:
+                g.beginning_execution(t)
+            return t, work
+        if self._ready:
+            return self._pop_ready()
+        return None
+
+    def _sleep(self, seconds):
+        # called with self._cond held
+        self._sleeping += 1
+        try:
+            self._cond.wait(seconds if seconds is not None else 0.05)
+        finally:
+            self._sleeping -= 1
+
+    def _wake(self):
+        with self._cond:
+            self._cond.notify_all()
+
+    def _worker(self, until_ns, done_flag):
+        while not self._stop:
+            with self._cond:
+                if done_flag():
+                    self._stop = True
+                    self._cond.notify_all()
+                    return
+                item = self._wait_for_work(50_000_000 if self._sim() is None else None, until_ns)
+                if item is None:
+                    if self._sim() is not None or until_ns is not None and self._now_base() >= until_ns:
+                        if self._running == 0:
+                            self._stop = True
+                            self._cond.notify_all()
+                            return
+                    if self._is_shutdown or not self._context.ok() or done_flag():
+                        self._stop = True
+                        self._cond.notify_all()
+                        return
+                    if self._running:
+                        self._cond.wait(0.01)
+                    continue
+                self._running += 1
+            ent, work = item
+            try:
+                self._run(ent, work)
+            finally:
+                with self._cond:
+                    self._running -= 1
+                    g = ent.callback_group
+                    if g is not None:
+                        g.ending_execution(ent)
+                    self._cond.notify_all()
+
+    def _spin_loop(self, until_ns, done_flag=lambda: False):
+        self._enter()
+        try:
+            self._stop = False
+            self._done_flag = done_flag
+            threads = [threading.Thread(target=self._worker, args=(until_ns, done_flag),
+                                        name=f"robocourse-executor-{i}", daemon=True)
+                       for i in range(self._num_threads)]
+            for t in threads:
+                t.start()
+            for t in threads:
+                t.join()
+        finally:
+            self._done_flag = None
+            self._leave()
+
+    def spin_once(self, timeout_sec: float | None = None) -> None:
+        self._enter()
+        try:
+            with self._cond:
+                item = self._wait_for_work(None if timeout_sec is None else int(timeout_sec * 1e9))
+                if item is None:
+                    return
+                self._running += 1
+            ent, work = item
+            try:
+                self._run(ent, work)
+            finally:
+                with self._cond:
+                    self._running -= 1
+                    g = ent.callback_group
+                    if g is not None:
+                        g.ending_execution(ent)
+                    self._cond.notify_all()
+        finally:
+            self._leave()
+
+    def spin_until_future_complete(self, future, timeout_sec: float | None = None) -> None:
+        end = None if timeout_sec is None else self._now_base() + int(timeout_sec * 1e9)
+
+        def wake(_f, ex=self):
+            ex._wake()
+
+        wake._immediate = True
+        future.add_done_callback(wake)
+        self._future_waiting = True
+        try:
+            self._spin_loop(end, done_flag=future.done)
+        finally:
+            self._future_waiting = False
+
+    def shutdown(self, timeout_sec: float | None = None) -> bool:
+        self._stop = True
+        return super().shutdown(timeout_sec)

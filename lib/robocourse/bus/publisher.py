@@ -1,0 +1,105 @@
+"""Publisher: ``node.create_publisher(msg_type, topic, qos)`` then ``pub.publish(msg)``.
+
+rclpy counterpart: ``rclpy.publisher.Publisher`` (publish, get_subscription_count,
+topic_name, qos_profile, assert_liveliness, wait_for_all_acked, destroy). Messages are passed
+by reference to every matched subscription of the same process (like rclcpp intra-process
+with ``shared_ptr<const T>``): do not modify a message after publishing it or in a callback.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+from robocourse.bus.qos import INFINITE, DurabilityPolicy, HistoryPolicy, _Counts
+
+
+class InvalidHandle(RuntimeError):
+    """Using an entity after ``destroy()`` (rclpy raises ``InvalidHandle`` too)."""
+
+
+class _Expiring:
+    """A message with its lifespan expiry (only used when the publisher has a lifespan)."""
+
+    __slots__ = ("msg", "expiry_ns")
+
+    def __init__(self, msg, expiry_ns):
+        self.msg = msg
+        self.expiry_ns = expiry_ns
+
+
+class Publisher:
+    def __init__(self, node, msg_type, topic, qos, event_callbacks, callback_group):
+        self._node = node
+        self.msg_type = msg_type
+        self.topic_name = topic
+        self.qos_profile = qos
+        self.event_callbacks = event_callbacks
+        self.callback_group = callback_group
+        self._subs = []                 # matched subscriptions
+        self._deliver = ()              # their _deliver methods (tuple: fast iteration)
+        self._destroyed = False
+        self.counts = _Counts()
+        self.publish_count = 0
+        self._lifespan_ns = None if qos.lifespan == INFINITE else int(qos.lifespan * 1e9)
+        self._clock = node.get_clock()
+        if qos.durability == DurabilityPolicy.TRANSIENT_LOCAL:
+            maxlen = qos.depth if qos.history == HistoryPolicy.KEEP_LAST else None
+            self._history = deque(maxlen=maxlen)
+        else:
+            self._history = None
+        self._alive = True
+        self._asserted = 0
+
+    @property
+    def topic(self) -> str:
+        return self.topic_name
+
+    @property
+    def handle(self):
+        if self._destroyed:
+            raise InvalidHandle(f"publisher on {self.topic_name!r} was destroyed")
+        return self
+
+    def publish(self, msg) -> None:
+        """Deliver ``msg`` to every matched subscription (and keep it for late joiners)."""
+        if type(msg) is not self.msg_type:
+            self._wrong(msg)
+        if self._destroyed:
+            raise InvalidHandle(
+                f"cannot publish on {self.topic_name!r}: the publisher was destroyed "
+                f"(destroy_publisher / destroy_node); create a new publisher")
+        self.publish_count += 1
+        if self._lifespan_ns is not None:
+            msg = _Expiring(msg, self._clock._now_ns() + self._lifespan_ns)
+        if self._history is not None:
+            self._history.append(msg)
+        for deliver in self._deliver:
+            deliver(msg)
+
+    def _wrong(self, msg):
+        if self._destroyed:
+            raise InvalidHandle(f"cannot publish on {self.topic_name!r}: the publisher was destroyed")
+        got = getattr(msg, "_type", type(msg).__name__)
+        raise TypeError(
+            f"publisher on {self.topic_name!r} (node {self._node.get_fully_qualified_name()!r}) "
+            f"publishes {self.msg_type._type}, got {got} ({msg!r:.80}); "
+            f"publish a {self.msg_type.__name__}(...) instead")
+
+    def get_subscription_count(self) -> int:
+        return len(self._subs)
+
+    def assert_liveliness(self) -> None:
+        """Manual liveliness: tell subscribers this publisher is alive (MANUAL_BY_TOPIC)."""
+        self._asserted += 1
+
+    def wait_for_all_acked(self, timeout_sec=None) -> bool:
+        return True   # delivery is synchronous: everything is acknowledged on return
+
+    def destroy(self) -> None:
+        self._node.destroy_publisher(self)
+
+    def _describe(self) -> str:
+        return f"publisher on topic '{self.topic_name}' of node '{self._node.get_fully_qualified_name()}'"
+
+    def __repr__(self):
+        return f"<Publisher {self.topic_name} [{self.msg_type._type}]>"

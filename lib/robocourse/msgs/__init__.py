@@ -1,0 +1,56 @@
+"""robocourse.msgs: ROS 2 message, service and action types as dataclasses.
+
+Import like rclpy code does, one module per ROS package::
+
+    from robocourse.msgs.geometry_msgs import Twist
+    from robocourse.msgs.std_msgs import Float64
+    from robocourse.msgs.example_interfaces import AddTwoInts, Fibonacci
+
+Each type carries ``_type`` ("geometry_msgs/msg/Twist") and ``_definition`` (the .msg text);
+:func:`full_definition` gives the text with nested definitions appended, as ROS bags and MCAP
+files store it. Chapters add their own types with :func:`message`, :func:`service` and
+:func:`action` (see ``robocourse.msgs._core``). Conversions: :func:`to_dict`,
+:func:`from_dict`, :func:`to_numpy` (a list of messages -> arrays per numeric field).
+"""
+
+from robocourse.msgs import (  # noqa: F401  (import order registers dependencies first)
+    builtin_interfaces,
+    unique_identifier_msgs,
+    std_msgs,
+    geometry_msgs,
+    nav_msgs,
+    sensor_msgs,
+    trajectory_msgs,
+    diagnostic_msgs,
+    tf2_msgs,
+    rosgraph_msgs,
+    action_msgs,
+    std_srvs,
+    example_interfaces,
+)
+from robocourse.msgs._core import (
+    REGISTRY,
+    ActionType,
+    FieldSpec,
+    MessageDefinitionError,
+    ServiceType,
+    action,
+    check_message,
+    definition_name,
+    from_dict,
+    full_definition,
+    get_message_type,
+    is_message_type,
+    make_message,
+    message,
+    numeric_paths,
+    service,
+    to_dict,
+    to_numpy,
+)
+
+__all__ = [
+    "REGISTRY", "ActionType", "FieldSpec", "MessageDefinitionError", "ServiceType", "action",
+    "check_message", "definition_name", "from_dict", "full_definition", "get_message_type", "is_message_type",
+    "make_message", "message", "numeric_paths", "service", "to_dict", "to_numpy",
+]

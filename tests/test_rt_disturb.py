@@ -1,0 +1,72 @@
+"""robocourse.rt.disturb: each disturbance does what it says (counted, not timed)."""
+
+import gc
+import logging
+import os
+import time
+
+import pytest
+from robocourse.rt import STOP, FakeClock, PeriodicLoop, Sleep
+from robocourse.rt.disturb import (
+    AllocationStorm,
+    CpuLoad,
+    FreshMemory,
+    GcPauses,
+    GcPressure,
+    HeapGrowth,
+    LogEveryIteration,
+    chain,
+)
+
+
+def test_cpu_load_pins_busy_processes_and_cleans_up():
+    cpu = sorted(os.sched_getaffinity(0))[0]
+    with CpuLoad(cpu=cpu, processes=2) as load:
+        pids = load.pids
+        assert len(pids) == 2
+        time.sleep(0.2)
+        for pid in pids:
+            assert os.sched_getaffinity(pid) == {cpu}
+            with open(f"/proc/{pid}/stat") as fh:
+                assert fh.read().split(")")[1].split()[0] in "RS"
+    for pid in pids:
+        assert not os.path.exists(f"/proc/{pid}") or open(f"/proc/{pid}/stat").read().split(")")[1].split()[0] == "Z"
+    with pytest.raises(ValueError, match="pick one of them"):
+        CpuLoad(cpu=4096)
+
+
+def test_gc_pressure_survivors_reach_the_oldest_generation_and_pauses_are_recorded():
+    pressure = GcPressure(live=1000, per_iteration=50, window=10)
+    with GcPauses() as pauses:
+        for _ in range(200):
+            pressure()
+        gc.collect()
+    assert len(pressure.recent) == 10 and len(pressure.live) == 1000
+    assert len(pauses.full()) >= 1 and all(d >= 0 for d in pauses.full())
+    assert {g for g, _ in pauses.pauses} >= {0, 2}
+    assert GcPressure.time_full_collection() > 0
+
+
+def test_fresh_memory_faults_every_page_and_heap_growth_grows():
+    r = PeriodicLoop(1_000_000, 5, wait=Sleep()).run(FreshMemory(64 * 4096))
+    assert (r.minor_pagefaults >= 64).all()
+    h = HeapGrowth(chunk=4096, keep=3)
+    for _ in range(5):
+        h()
+    assert len(h._held) == 2  # cleared after 3, then 2 more
+    AllocationStorm(objects=10, nbytes=10)()
+
+
+def test_logging_in_the_loop_writes_one_line_per_iteration(tmp_path):
+    path = tmp_path / "loop.log"
+    with LogEveryIteration(path, level=logging.INFO) as log:
+        PeriodicLoop(1_000_000, 25, wait=Sleep(), clock=FakeClock(), pagefaults=False).run(log)
+    lines = path.read_text().splitlines()
+    assert len(lines) == 25 and "iteration 24 latency" in lines[-1]
+
+
+def test_chain_calls_all_and_passes_stop():
+    calls = []
+    cb = chain(lambda t: calls.append(1), lambda t: STOP if t.iteration == 2 else None)
+    r = PeriodicLoop(1_000_000, 10, wait=Sleep(), clock=FakeClock(), pagefaults=False).run(cb)
+    assert r.iterations == 3 and len(calls) == 3
