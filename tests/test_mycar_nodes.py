@@ -165,3 +165,12 @@ def test_mission_recording_holds_every_odom_message(tmp_path):
             xs.append(decoded.pose.pose.position.x)
     assert len(xs) == rep.odom_published
     assert max(xs) > 0.8  # the car really went to x = 1.0
+
+
+def test_blocking_execute_swallows_cancel_until_a_multithreaded_executor_fixes_it():
+    from robocourse.mycar.experiments import blocking_action
+
+    single = blocking_action(False, work_s=1.0, cancel_after_s=0.2)
+    multi = blocking_action(True, work_s=1.0, cancel_after_s=0.2)
+    assert single["status"] == "SUCCEEDED" and single["cancel_answered_s"] >= 1.0
+    assert multi["status"] == "CANCELED" and multi["cancel_answered_s"] < 1.0
