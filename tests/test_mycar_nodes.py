@@ -174,3 +174,19 @@ def test_blocking_execute_swallows_cancel_until_a_multithreaded_executor_fixes_i
     multi = blocking_action(True, work_s=1.0, cancel_after_s=0.2)
     assert single["status"] == "SUCCEEDED" and single["cancel_answered_s"] >= 1.0
     assert multi["status"] == "CANCELED" and multi["cancel_answered_s"] < 1.0
+
+
+def test_terminal_teleop_from_a_pipe():
+    import io
+
+    from robocourse.mycar.teleop import TeleopNode, run_terminal
+
+    ctx = Context(use_sim_time=True)
+    node = TeleopNode(context=ctx)
+    out = io.StringIO()
+    assert run_terminal(node, io.StringIO("wwa?d\n"), out=out) == 5  # 4 known keys + the final stop
+    assert node.sent == [(0.2, 0.0), (0.2, 0.0), (0.0, 1.5), (0.0, -1.5), (0.0, 0.0)]
+    assert "w forward" in out.getvalue()
+    with pytest.raises(ValueError, match="unknown teleop key"):
+        node.press("z")
+    ctx.shutdown()

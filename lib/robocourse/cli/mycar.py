@@ -10,8 +10,7 @@ def register(sub):
     d.add_argument("--record", metavar="FILE.mcap", help="record the mission (opens in Foxglove)")
     d.add_argument("--config", help="ROS 2 parameter file (default: the package's mycar.yaml)")
     d.set_defaults(func=run_demo)
-    t = s.add_parser("teleop", help="drive the simulated car with keys for N seconds of simulated time")
-    t.add_argument("--seconds", type=float, default=30.0)
+    t = s.add_parser("teleop", help="drive the car (simulated driver, wall clock) with keys until Ctrl-C")
     t.set_defaults(func=run_teleop)
     p.set_defaults(func=lambda args: p.print_help() or 2)
 
@@ -34,7 +33,6 @@ def run_demo(args) -> int:
 def run_teleop(args) -> int:
     import sys
     import threading
-    import time
 
     from robocourse.bus import Context
     from robocourse.mycar.launch import launch
@@ -45,10 +43,7 @@ def run_teleop(args) -> int:
     car.executor.add_node(teleop)
     spinner = threading.Thread(target=car.executor.spin, daemon=True)
     spinner.start()
-    deadline = time.monotonic() + args.seconds
     sent = run_terminal(teleop, sys.stdin)
-    while time.monotonic() < deadline and not sys.stdin.isatty():
-        break
     x, y, yaw = car.driver.pose
     print(f"sent {sent} commands; odometry pose x={x:.3f} y={y:.3f} yaw={yaw:.3f}")
     car.context.try_shutdown()
