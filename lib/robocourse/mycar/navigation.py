@@ -13,14 +13,14 @@ from __future__ import annotations
 
 import math
 
-from robocourse.bus import FloatingPointRange, Node, ParameterDescriptor
+from robocourse.bus import Node
 from robocourse.bus.action import ActionServer, CancelResponse, GoalResponse
 from robocourse.msgs.geometry_msgs import Twist
 from robocourse.msgs.nav_msgs import Odometry
 
 from . import kinematics as kin
 from .msgs import NavigateToPose
-from .nodes import QOS_CMD_VEL, QOS_ODOM
+from .nodes import QOS_CMD_VEL, QOS_ODOM, declare_ranged
 
 _PARAMS = {
     "goal_tolerance": (0.05, 0.005, 1.0, "position tolerance [m]"),
@@ -50,9 +50,7 @@ def check_goal(target_pose, current=(0.0, 0.0, 0.0), max_distance: float = 5.0) 
 class NavigationActionServer(Node):
     def __init__(self, name: str = "navigation_server", **kwargs):
         super().__init__(name, **kwargs)
-        for pname, (default, lo, hi, text) in _PARAMS.items():
-            self.declare_parameter(pname, default, ParameterDescriptor(
-                description=text, floating_point_range=[FloatingPointRange(from_value=lo, to_value=hi)]))
+        declare_ranged(self, _PARAMS)
         self.pose: tuple[float, float, float] | None = None
         self.rejections: list[str] = []
         self.create_subscription(Odometry, "/odom", self.on_odom, QOS_ODOM)

@@ -40,6 +40,13 @@ _POSITIVE = {
 }
 
 
+def declare_ranged(node: Node, table: dict) -> None:
+    """Declare float parameters from ``{name: (default, min, max, description)}`` with their ranges."""
+    for pname, (default, lo, hi, text) in table.items():
+        node.declare_parameter(pname, default, ParameterDescriptor(
+            description=text, floating_point_range=[FloatingPointRange(from_value=lo, to_value=hi)]))
+
+
 def _stamp(msg_stamp, ns: int) -> None:
     msg_stamp.sec, msg_stamp.nanosec = divmod(int(ns), 1_000_000_000)
 
@@ -49,9 +56,7 @@ class DriverNode(Node):
 
     def __init__(self, driver: MotorDriver | None = None, name: str = "driver_node", **kwargs):
         super().__init__(name, **kwargs)
-        for pname, (default, lo, hi, text) in _POSITIVE.items():
-            self.declare_parameter(pname, default, ParameterDescriptor(
-                description=text, floating_point_range=[FloatingPointRange(from_value=lo, to_value=hi)]))
+        declare_ranged(self, _POSITIVE)
         self.declare_parameter("driver", "simulated", ParameterDescriptor(
             description="simulated (logs PWM) or mujoco (drives the physical model)", read_only=True))
         self.add_on_set_parameters_callback(self._on_parameters)
