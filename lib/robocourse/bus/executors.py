@@ -331,6 +331,28 @@ class Executor:
     def _execute_item(self, ent, work):
         self._run(ent, work)
 
+    def spin_some(self, max_callbacks: int = 1000) -> int:
+        """rclcpp ``Executor::spin_some``: run the callbacks ready now, never wait; return how many.
+
+        Due timers and queued messages run, including messages that those callbacks publish;
+        simulated time does not advance. ``max_callbacks`` bounds one call (a zero-period timer
+        is always due). The real-time executor of chapter 2 calls this once per loop iteration.
+        """
+        self._enter()
+        try:
+            n = 0
+            while n < max_callbacks:
+                if self._is_shutdown or (self._context is not None and not self._context.ok()):
+                    break
+                item = self._poll()
+                if item is None:
+                    break
+                self._execute_item(*item)
+                n += 1
+            return n
+        finally:
+            self._leave()
+
     def spin(self) -> None:
         """Run callbacks until the context is shut down or ``shutdown()`` is called."""
         self._spin_loop(None)

@@ -6,7 +6,8 @@ and an aggressive LQR (Q = diag(1, 1, 1e4, 1), R = 1e-5): gain crossover about 4
 delay margin of about 3.4 ms, the regime of stiff balance and force loops, where a sleeping
 Python loop's tail matters. ``replay`` feeds latency samples (ns, in measured order) into the
 nonlinear simulation, scaled by factors, and reports when the pole falls next to the delay
-margin python-control predicts.
+margin python-control predicts and to the longest stretch of consecutive writes that came
+later than that margin (a loaded core delays many iterations in a row).
 """
 
 from __future__ import annotations
@@ -47,21 +48,34 @@ def replay(latencies: dict[str, np.ndarray], scales=(1.0,), K=None, p: cartpole.
         for s in scales:
             scaled = np.clip(lat * s, 0, None)
             run = cartpole.simulate(K, x0=x0, duration=duration, period=period, latencies_ns=scaled, p=p, seed=None)
+            over = run.delays > dm
             rows.append({
                 "latencies": name, "scale": float(s),
                 "p50_ms": float(np.percentile(scaled, 50) / 1e6), "p99_ms": float(np.percentile(scaled, 99) / 1e6),
                 "max_ms": float(scaled.max() / 1e6), "delay_margin_ms": dm * 1e3,
+                "over_margin_fraction": float(over.mean()),
+                "longest_over_margin_ms": longest_run(over) * period * 1e3,
                 "fell": run.fell, "fell_at_s": run.fell_at,
                 "max_angle_error_rad": run.max_angle_error,
             })
     return rows
 
 
+def longest_run(flags) -> int:
+    """Length of the longest stretch of consecutive True values."""
+    best = cur = 0
+    for f in np.asarray(flags, dtype=bool):
+        cur = cur + 1 if f else 0
+        best = max(best, cur)
+    return best
+
+
 def format_rows(rows: list[dict]) -> str:
-    head = f"{'latencies':<18}{'scale':>7}{'p50 ms':>9}{'p99 ms':>9}{'max ms':>9}{'DM ms':>8}  outcome"
+    head = (f"{'latencies':<18}{'scale':>6}{'p50 ms':>8}{'p99 ms':>9}{'max ms':>9}{'DM ms':>7}"
+            f"{'>DM for':>10}  outcome")
     lines = [head, "-" * len(head)]
     for r in rows:
         outcome = f"FELL at {r['fell_at_s']:.2f} s" if r["fell"] else f"balanced (worst {math.degrees(r['max_angle_error_rad']):.2f} deg)"
-        lines.append(f"{r['latencies']:<18}{r['scale']:>7g}{r['p50_ms']:>9.3f}{r['p99_ms']:>9.3f}{r['max_ms']:>9.3f}"
-                     f"{r['delay_margin_ms']:>8.2f}  {outcome}")
+        lines.append(f"{r['latencies']:<18}{r['scale']:>6g}{r['p50_ms']:>8.3f}{r['p99_ms']:>9.3f}{r['max_ms']:>9.2f}"
+                     f"{r['delay_margin_ms']:>7.2f}{r['longest_over_margin_ms']:>7.0f} ms  {outcome}")
     return "\n".join(lines)

@@ -1,0 +1,219 @@
+"""MyCar's nodes: the motor driver (with odometry, TF, diagnostics, watchdog), the simulator,
+and the LED service (the seed's DriverNode, LedServiceServer, plus a MuJoCo world).
+
+Topics and QoS as in the seed: ``/cmd_vel`` geometry_msgs/Twist RELIABLE VOLATILE (depth 10);
+``/odom`` nav_msgs/Odometry BEST_EFFORT at ``odom_rate_hz`` (50); ``/tf`` odom -> base_link;
+``/diagnostics`` at 1 Hz. The watchdog stops the motors when no /cmd_vel arrived for
+``watchdog_timeout`` (0.2 s), logs it once, and motion resumes with the next command.
+"""
+
+from __future__ import annotations
+
+import math
+
+from robocourse.bus import (
+    FloatingPointRange,
+    Node,
+    ParameterDescriptor,
+    QoSProfile,
+    ReliabilityPolicy,
+    SetParametersResult,
+)
+from robocourse.msgs.diagnostic_msgs import DiagnosticArray, DiagnosticStatus, KeyValue
+from robocourse.msgs.geometry_msgs import TransformStamped, Twist
+from robocourse.msgs.nav_msgs import Odometry
+from robocourse.msgs.tf2_msgs import TFMessage
+
+from . import kinematics as kin
+from .drivers import MotorDriver, MujocoMotorDriver, SimulatedMotorDriver
+from .msgs import SetLed
+
+QOS_CMD_VEL = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+QOS_ODOM = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+
+_POSITIVE = {
+    "wheel_base": (0.15, 0.02, 2.0, "distance between the wheels [m]"),
+    "wheel_radius": (0.0325, 0.005, 0.5, "wheel radius [m]"),
+    "max_linear_speed": (0.5, 0.01, 10.0, "wheel speed at motor command 1.0 [m/s], for normalisation"),
+    "odom_rate_hz": (50.0, 1.0, 1000.0, "odometry publish rate [Hz]"),
+    "watchdog_timeout": (0.2, 0.01, 10.0, "stop the motors after this long without /cmd_vel [s]"),
+}
+
+
+def declare_ranged(node: Node, table: dict) -> None:
+    """Declare float parameters from ``{name: (default, min, max, description)}`` with their ranges."""
+    for pname, (default, lo, hi, text) in table.items():
+        node.declare_parameter(pname, default, ParameterDescriptor(
+            description=text, floating_point_range=[FloatingPointRange(from_value=lo, to_value=hi)]))
+
+
+def _stamp(msg_stamp, ns: int) -> None:
+    msg_stamp.sec, msg_stamp.nanosec = divmod(int(ns), 1_000_000_000)
+
+
+class DriverNode(Node):
+    """The seed's ``DriverNode``: /cmd_vel in, motor commands out, /odom + TF + /diagnostics back."""
+
+    def __init__(self, driver: MotorDriver | None = None, name: str = "driver_node", **kwargs):
+        super().__init__(name, **kwargs)
+        declare_ranged(self, _POSITIVE)
+        self.declare_parameter("driver", "simulated", ParameterDescriptor(
+            description="simulated (logs PWM) or mujoco (drives the physical model)", read_only=True))
+        self.add_on_set_parameters_callback(self._on_parameters)
+        kind = self.get_parameter("driver").value
+        if driver is None:
+            if kind != "simulated":
+                raise ValueError(f"driver parameter {kind!r} needs a driver object: pass MujocoMotorDriver(car) "
+                                 "(launch() does this for driver: mujoco)")
+            driver = SimulatedMotorDriver()
+        self.driver = driver
+        self.driver.init()
+        self.pose = (0.0, 0.0, 0.0)
+        self.twist = (0.0, 0.0)
+        self.last_cmd_ns: int | None = None
+        self.watchdog_tripped = False
+        self.watchdog_trips = 0
+        self.commands_received = 0
+        self.odom_published = 0
+        self.create_subscription(Twist, "/cmd_vel", self.on_cmd_vel, QOS_CMD_VEL)
+        self.odom_pub = self.create_publisher(Odometry, "/odom", QOS_ODOM)
+        self.tf_pub = self.create_publisher(TFMessage, "/tf", 100)
+        self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        period = 1.0 / self.get_parameter("odom_rate_hz").value
+        self.odom_timer = self.create_timer(period, self.on_odom_timer)
+        self.watchdog_timer = self.create_timer(0.01, self.on_watchdog)
+        self.create_timer(1.0, self.publish_diagnostics)
+        self._last_odom_ns = self.get_clock().now().nanoseconds
+
+    @property
+    def geometry(self) -> kin.DiffDriveGeometry:
+        """The car's geometry from the current parameters (a parameter change applies at once)."""
+        return kin.DiffDriveGeometry(self.get_parameter("wheel_base").value, self.get_parameter("wheel_radius").value,
+                                     self.get_parameter("max_linear_speed").value)
+
+    def _on_parameters(self, params):
+        for p in params:
+            if p.name in _POSITIVE and not (isinstance(p.value, (int, float)) and math.isfinite(p.value) and p.value > 0):
+                return SetParametersResult(successful=False, reason=f"{p.name} must be a positive number, got {p.value!r}")
+        return SetParametersResult(successful=True)
+
+    def on_cmd_vel(self, msg: Twist) -> None:
+        self.commands_received += 1
+        self.last_cmd_ns = self.get_clock().now().nanoseconds
+        if self.watchdog_tripped:
+            self.get_logger().info("cmd_vel received again: motors re-enabled")
+            self.watchdog_tripped = False
+        v, w = msg.linear.x, msg.angular.z
+        if not (math.isfinite(v) and math.isfinite(w)):
+            self.get_logger().error(f"ignoring /cmd_vel with non-finite values (linear.x={v}, angular.z={w})")
+            return
+        left, right = kin.twist_to_motor_commands(v, w, self.geometry)
+        self.driver.set_motor_speeds(left, right)
+
+    def on_watchdog(self) -> None:
+        if self.last_cmd_ns is None or self.watchdog_tripped:
+            return
+        age = (self.get_clock().now().nanoseconds - self.last_cmd_ns) * 1e-9
+        if age > self.get_parameter("watchdog_timeout").value:
+            self.driver.emergency_stop()
+            self.watchdog_tripped = True
+            self.watchdog_trips += 1
+            self.tripped_at_age = age
+            self.get_logger().warning(f"no /cmd_vel for {age * 1e3:.0f} ms: emergency stop")
+
+    def wheel_speeds(self) -> tuple[float, float]:
+        """Wheel surface speeds (m/s): measured by the MuJoCo car's encoders, else as commanded."""
+        g = self.geometry
+        if isinstance(self.driver, MujocoMotorDriver):
+            wl, wr = self.driver.car.wheel_speeds()
+            return wl * g.wheel_radius, wr * g.wheel_radius
+        return self.driver.left * g.max_linear_speed, self.driver.right * g.max_linear_speed
+
+    def on_odom_timer(self) -> None:
+        now = self.get_clock().now().nanoseconds
+        dt = (now - self._last_odom_ns) * 1e-9
+        self._last_odom_ns = now
+        v, w = kin.wheel_speeds_to_twist(*self.wheel_speeds(), self.geometry)
+        self.pose = kin.integrate_pose(*self.pose, v, w, dt)
+        self.twist = (v, w)
+        x, y, yaw = self.pose
+        q = kin.yaw_to_quaternion(yaw)
+        odom = Odometry()
+        _stamp(odom.header.stamp, now)
+        odom.header.frame_id, odom.child_frame_id = "odom", "base_link"
+        odom.pose.pose.position.x, odom.pose.pose.position.y = x, y
+        o = odom.pose.pose.orientation
+        o.x, o.y, o.z, o.w = q
+        odom.twist.twist.linear.x, odom.twist.twist.angular.z = v, w
+        self.odom_pub.publish(odom)
+        self.odom_published += 1
+        tf = TransformStamped()
+        tf.header.stamp = odom.header.stamp
+        tf.header.frame_id, tf.child_frame_id = "odom", "base_link"
+        tf.transform.translation.x, tf.transform.translation.y = x, y
+        r = tf.transform.rotation
+        r.x, r.y, r.z, r.w = q
+        self.tf_pub.publish(TFMessage(transforms=[tf]))
+
+    def publish_diagnostics(self) -> None:
+        now = self.get_clock().now().nanoseconds
+        age = "never" if self.last_cmd_ns is None else f"{(now - self.last_cmd_ns) * 1e-9:.3f}"
+        status = DiagnosticStatus(name="mycar: motors", hardware_id=type(self.driver).__name__,
+                                  level=DiagnosticStatus.WARN if self.watchdog_tripped else DiagnosticStatus.OK,
+                                  message="watchdog stop" if self.watchdog_tripped else "ok",
+                                  values=[KeyValue(key="left", value=f"{self.driver.left:.3f}"),
+                                          KeyValue(key="right", value=f"{self.driver.right:.3f}"),
+                                          KeyValue(key="command_age_s", value=age),
+                                          KeyValue(key="watchdog_trips", value=str(self.watchdog_trips))])
+        arr = DiagnosticArray(status=[status])
+        _stamp(arr.header.stamp, now)
+        self.diag_pub.publish(arr)
+
+
+class SimulatorNode(Node):
+    """Steps the MuJoCo car (ground truth) on a timer and publishes ``/ground_truth`` (Odometry).
+
+    Counterpart of a Gazebo/MuJoCo simulator node; not in the seed (which had no physics).
+    """
+
+    def __init__(self, car, rate_hz: float = 200.0, name: str = "mycar_sim", **kwargs):
+        super().__init__(name, **kwargs)
+        self.car = car
+        self.dt = 1.0 / rate_hz
+        self.truth_pub = self.create_publisher(Odometry, "/ground_truth", QOS_ODOM)
+        self.create_timer(self.dt, self.step)
+        self.steps = 0
+
+    def step(self) -> None:
+        self.car.step(self.dt)
+        self.steps += 1
+        if self.steps % 4 == 0:
+            x, y, yaw = self.car.pose()
+            msg = Odometry()
+            _stamp(msg.header.stamp, self.get_clock().now().nanoseconds)
+            msg.header.frame_id, msg.child_frame_id = "world", "base_link"
+            msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
+            o = msg.pose.pose.orientation
+            o.x, o.y, o.z, o.w = kin.yaw_to_quaternion(yaw)
+            self.truth_pub.publish(msg)
+
+
+class LedServiceServer(Node):
+    """The seed's ``/set_led`` service: LEDs 1 and 2 exist; any other id fails with a warning."""
+
+    VALID = (1, 2)
+
+    def __init__(self, name: str = "led_service_server", **kwargs):
+        super().__init__(name, **kwargs)
+        self.leds = {i: False for i in self.VALID}
+        self.create_service(SetLed, "/set_led", self.on_set_led)
+
+    def on_set_led(self, request, response):
+        if request.led_id not in self.leds:
+            self.get_logger().warning(f"Invalid LED ID: {request.led_id} (valid: {', '.join(map(str, self.VALID))})")
+            response.success = False
+            return response
+        self.leds[request.led_id] = bool(request.state)
+        self.get_logger().info(f"LED {request.led_id} turned {'ON' if request.state else 'OFF'}")
+        response.success = True
+        return response
