@@ -29,6 +29,16 @@ _ids = itertools.count()
 
 
 @functools.cache
+def _attach(node, ctx, executor) -> None:
+    """Spin ``node`` on ``executor``, or on the first executor already spinning ``ctx``."""
+    if executor is not None:
+        executor.add_node(node)
+        return
+    for ex in list(ctx._executors):
+        ex.add_node(node)
+        break
+
+
 def _encoder(msg_type):
     from mcap_ros2._dynamic import serialize_dynamic
 
@@ -68,12 +78,7 @@ class Recorder:
                                  f"first (known topics: {sorted(ctx._topics)})")
         self._refresh()
         ctx.add_graph_listener(self._refresh)
-        if executor is not None:
-            executor.add_node(self.node)
-        else:
-            for ex in list(ctx._executors):
-                ex.add_node(self.node)
-                break
+        _attach(self.node, ctx, executor)
 
     def _refresh(self):
         if self._closed:
@@ -221,12 +226,7 @@ class Player:
         if entries:
             self._timer = self.node.create_timer(0.0, self._tick)
             self._timer._next_ns = self._due[0]
-        if executor is not None:
-            executor.add_node(self.node)
-        else:
-            for ex in list(ctx._executors):
-                ex.add_node(self.node)
-                break
+        _attach(self.node, ctx, executor)
 
     def _tick(self):
         now = self.node.get_clock()._now_ns()

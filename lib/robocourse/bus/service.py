@@ -35,7 +35,25 @@ class DeadlockError(RuntimeError):
     """A synchronous call that could never complete."""
 
 
-class Service:
+class _Queued:
+    """Work queued for an executor: ``_enqueue`` schedules, the executor ``_take``s (shared by
+    Service requests and Client responses)."""
+
+    def _enqueue(self, item) -> None:
+        self._queue.append(item)
+        if not self._scheduled:
+            ex = self._executor
+            if ex is not None:
+                ex._schedule(self)
+
+    def _take_check(self):
+        return bool(self._queue)
+
+    def _take(self):
+        return self._queue.popleft() if self._queue else None
+
+
+class Service(_Queued):
     def __init__(self, node, srv_type, srv_name, callback, qos_profile, callback_group):
         if not (isinstance(srv_type, type) and hasattr(srv_type, "Request") and hasattr(srv_type, "Response")):
             raise TypeError(f"create_service needs a service type (e.g. std_srvs.Trigger), got {srv_type!r}")
@@ -60,17 +78,7 @@ class Service:
         return self.srv_name
 
     def _receive(self, request, client, future):
-        self._queue.append((request, client, future))
-        if not self._scheduled:
-            ex = self._executor
-            if ex is not None:
-                ex._schedule(self)
-
-    def _take_check(self):
-        return bool(self._queue)
-
-    def _take(self):
-        return self._queue.popleft() if self._queue else None
+        self._enqueue((request, client, future))
 
     def _execute(self, work):
         request, client, future = work
@@ -108,7 +116,7 @@ class Service:
         return f"<Service {self.srv_name} [{self.srv_type._type}]>"
 
 
-class Client:
+class Client(_Queued):
     def __init__(self, node, srv_type, srv_name, qos_profile, callback_group):
         if not (isinstance(srv_type, type) and hasattr(srv_type, "Request")):
             raise TypeError(f"create_client needs a service type (e.g. std_srvs.Trigger), got {srv_type!r}")
@@ -215,17 +223,7 @@ class Client:
                 f"background thread before calling call().")
 
     def _respond(self, future, response, error):
-        self._queue.append((future, response, error))
-        if not self._scheduled:
-            ex = self._executor
-            if ex is not None:
-                ex._schedule(self)
-
-    def _take_check(self):
-        return bool(self._queue)
-
-    def _take(self):
-        return self._queue.popleft() if self._queue else None
+        self._enqueue((future, response, error))
 
     def _execute(self, work):
         future, response, error = work
