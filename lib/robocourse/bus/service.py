@@ -39,6 +39,17 @@ class _Queued:
     """Work queued for an executor: ``_enqueue`` schedules, the executor ``_take``s (shared by
     Service requests and Client responses)."""
 
+    def _init_endpoint(self, node, srv_type, srv_name, qos_profile, callback_group) -> None:
+        self._node = node
+        self.srv_type = srv_type
+        self.srv_name = srv_name
+        self.qos_profile = qos_profile
+        self.callback_group = callback_group
+        self._queue = deque()
+        self._scheduled = False
+        self._executor = None
+        self._destroyed = False
+
     def _enqueue(self, item) -> None:
         self._queue.append(item)
         if not self._scheduled:
@@ -59,16 +70,8 @@ class Service(_Queued):
             raise TypeError(f"create_service needs a service type (e.g. std_srvs.Trigger), got {srv_type!r}")
         if not callable(callback):
             raise TypeError(f"service callback must be callable, got {callback!r}")
-        self._node = node
-        self.srv_type = srv_type
-        self.srv_name = srv_name
+        self._init_endpoint(node, srv_type, srv_name, qos_profile, callback_group)
         self.callback = callback
-        self.qos_profile = qos_profile
-        self.callback_group = callback_group
-        self._queue = deque()
-        self._scheduled = False
-        self._executor = None
-        self._destroyed = False
         self.request_count = 0
         self.error_count = 0
         self._raw = False
@@ -120,15 +123,7 @@ class Client(_Queued):
     def __init__(self, node, srv_type, srv_name, qos_profile, callback_group):
         if not (isinstance(srv_type, type) and hasattr(srv_type, "Request")):
             raise TypeError(f"create_client needs a service type (e.g. std_srvs.Trigger), got {srv_type!r}")
-        self._node = node
-        self.srv_type = srv_type
-        self.srv_name = srv_name
-        self.qos_profile = qos_profile
-        self.callback_group = callback_group
-        self._queue = deque()
-        self._scheduled = False
-        self._executor = None
-        self._destroyed = False
+        self._init_endpoint(node, srv_type, srv_name, qos_profile, callback_group)
         self._pending = set()
 
     @property
