@@ -12,7 +12,7 @@ import random
 import sys
 
 #: Environment variables that mean "executed by a machine, not read by a person".
-TEST_ENV_VARS = ("ROBOCOURSE_TEST", "CI", "NBMAKE", "ROBOCOURSE_GRADING_RESULTS", "PYTEST_CURRENT_TEST")
+TEST_ENV_VARS = ("ROBOCOURSE_TEST", "CI", "ROBOCOURSE_GRADING_RESULTS", "PYTEST_CURRENT_TEST")
 
 DEFAULT_SEED = 20261121
 
