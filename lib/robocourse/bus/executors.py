@@ -380,15 +380,19 @@ class Executor:
         finally:
             self._leave()
 
-    def spin_until_future_complete(self, future, timeout_sec: float | None = None) -> None:
-        """Spin until ``future`` is done or ``timeout_sec`` (executor time) passes."""
-        end = None if timeout_sec is None else self._now_base() + int(timeout_sec * 1e9)
+    def _arm_future(self, future, timeout_sec):
+        """Wake this executor when ``future`` completes; return the end time of the wait (or None)."""
 
         def wake(_f, ex=self):
             ex._wake()
 
         wake._immediate = True
         future.add_done_callback(wake)
+        return None if timeout_sec is None else self._now_base() + int(timeout_sec * 1e9)
+
+    def spin_until_future_complete(self, future, timeout_sec: float | None = None) -> None:
+        """Spin until ``future`` is done or ``timeout_sec`` (executor time) passes."""
+        end = self._arm_future(future, timeout_sec)
         self._enter()
         self._future_waiting = True
         self._done_flag = future.done
@@ -603,13 +607,7 @@ class MultiThreadedExecutor(Executor):
             self._leave()
 
     def spin_until_future_complete(self, future, timeout_sec: float | None = None) -> None:
-        end = None if timeout_sec is None else self._now_base() + int(timeout_sec * 1e9)
-
-        def wake(_f, ex=self):
-            ex._wake()
-
-        wake._immediate = True
-        future.add_done_callback(wake)
+        end = self._arm_future(future, timeout_sec)
         self._future_waiting = True
         try:
             self._spin_loop(end, done_flag=future.done)
