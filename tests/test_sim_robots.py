@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from robocourse.sim import robots
-from robocourse.sim.robots import GraspObject, RobotSim, ServoGains, Wall
+from robocourse.sim.robots import GraspObject, Kinematics, RobotSim, ServoGains, Wall
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -187,6 +187,57 @@ def test_unknown_robot_names_the_choices():
             call()
 
 
+# --- Kinematics ------------------------------------------------------------------------------
+
+def test_kinematics_chain_is_the_six_arm_joints_and_fk_is_the_dh_table():
+    kin = Kinematics("ur5e")
+    assert kin.joint_names == tuple(UR_JOINTS) and kin.tip == "tool0"
+    q = [0.3, -1.1, 1.9, -0.4, 1.2, -2.5]
+    np.testing.assert_allclose(kin.calculate_link_transform(q), ur5e_dh_flange(q), atol=1e-9)
+    assert Kinematics("rrbot").joint_names == ("joint1", "joint2")
+
+
+def test_jacobian_matches_finite_differences_of_the_dh_pose():
+    kin = Kinematics("ur5e")
+    q = np.array([-0.6, -1.3, 1.4, -1.7, -1.5, 0.4])
+    J = kin.calculate_jacobian(q)
+    h = 1e-6
+    for i in range(6):
+        dq = np.zeros(6)
+        dq[i] = h
+        Tp, Tm = ur5e_dh_flange(q + dq), ur5e_dh_flange(q - dq)
+        np.testing.assert_allclose(J[:3, i], (Tp[:3, 3] - Tm[:3, 3]) / (2 * h), atol=1e-6)
+        dR = (Tp[:3, :3] - Tm[:3, :3]) / (2 * h) @ ur5e_dh_flange(q)[:3, :3].T  # skew(omega)
+        np.testing.assert_allclose(J[3:, i], [dR[2, 1], dR[0, 2], dR[1, 0]], atol=1e-6)
+
+
+def test_cartesian_and_joint_deltas_convert_both_ways():
+    kin = Kinematics("ur5e")
+    q = np.array([0.2, -1.2, 1.5, -1.8, -1.6, 0.1])  # away from singularities
+    dx = np.array([0.01, -0.02, 0.005, 0.0, 0.01, -0.03])
+    dq = kin.convert_cartesian_deltas_to_joint_deltas(q, dx)
+    np.testing.assert_allclose(kin.convert_joint_deltas_to_cartesian_deltas(q, dq), dx, atol=1e-12)
+    moved = kin.calculate_link_transform(q + dq)[:3, 3] - kin.calculate_link_transform(q)[:3, 3]
+    np.testing.assert_allclose(moved, dx[:3], atol=5e-4)  # first order: small deltas move as asked
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda k: k.calculate_link_transform([0.0] * 5), "6 finite numbers"),
+    (lambda k: k.calculate_jacobian([0.0] * 5 + [float("nan")]), "6 finite numbers"),
+    (lambda k: k.calculate_link_transform([0.0] * 6, "hand"), "not a link"),
+    (lambda k: k.convert_cartesian_deltas_to_joint_deltas([0.0] * 6, [0.0] * 3), "6 finite numbers"),
+    (lambda k: k.convert_joint_deltas_to_cartesian_deltas([0.0] * 6, [0.0] * 7), "6 finite numbers"),
+])
+def test_kinematics_refuses_bad_vectors(call, match):
+    with pytest.raises(ValueError, match=match):
+        call(Kinematics("ur5e"))
+
+
+def test_a_chain_through_the_mimic_finger_is_refused():
+    with pytest.raises(ValueError, match="mimic joint"):
+        Kinematics("ur5e", tip="right_finger")
+
+
 # --- RobotSim -----------------------------------------------------------------------------
 
 def test_state_views_are_current_read_only_and_never_reallocated():
@@ -197,7 +248,7 @@ def test_state_views_are_current_read_only_and_never_reallocated():
     assert sim.positions is p and sim.velocities is v and sim.efforts is e and sim.commands is c
     assert p[1] == sim.data.qpos[1] and v[1] == sim.data.qvel[1] and v[1] != 0.0
     assert e[1] == sim.data.actuator_force[1] and sim.time == pytest.approx(0.05)
-    for view in (p, v, e):
+    for view in (p, v, e, sim.mimic_positions, sim.mimic_velocities):
         with pytest.raises(ValueError, match="read-only"):
             view[0] = 1.0
     assert p.dtype == v.dtype == e.dtype == c.dtype == np.float64
@@ -299,23 +350,11 @@ def test_ft_sensor_reads_the_contact_force_of_a_table_pushing_back():
         s.step(1500)
     _, rot = sim.link_pose("tool0")
     f_world = rot @ sim.wrench[:3]
-    contact = np.zeros(3)
-    table_id = sim.model.geom("wall").id
-    wrench6 = np.zeros(6)
-    for k in range(sim.data.ncon):
-        c = sim.data.contact[k]
-        if table_id in (c.geom1, c.geom2):
-            mujoco.mj_contactForce(sim.model, sim.data, k, wrench6)
-            f = c.frame.reshape(3, 3).T @ wrench6[:3]  # contact frame -> world, on geom2
-            contact += f if c.geom2 != table_id else -f  # force on the robot geom
+    contact = -sim.contact_force("wall")  # what the table exerts on the fingers
     assert contact[2] > 5.0  # the table really pushes up on the fingers
     np.testing.assert_allclose(f_world, contact + [0, 0, -TOOL_MASS * G], atol=0.05 * np.linalg.norm(contact))
-    assert f_world[2] > 0 > rot_z(free)
-
-
-def rot_z(sim) -> float:
-    _, rot = sim.link_pose("tool0")
-    return (rot @ sim.wrench[:3])[2]
+    _, rot_free = free.link_pose("tool0")
+    assert (rot_free @ free.wrench[:3])[2] == pytest.approx(-TOOL_MASS * G, abs=1e-3)  # in the air: weight only
 
 
 def test_gripper_closes_on_an_object_and_holds_it():
@@ -336,8 +375,8 @@ def test_gripper_closes_on_an_object_and_holds_it():
     finger = sim.joint_names.index("finger_joint")
     assert sim.positions[finger] == pytest.approx(0.02, abs=1e-3)  # half the 0.04 m box width
     assert sim.efforts[finger] == pytest.approx(-20.0)  # squeezing at the effort limit
-    mimic = sim.data.qpos[sim.model.joint("right_finger_joint").qposadr[0]]
-    assert mimic == pytest.approx(sim.positions[finger], abs=1e-3)
+    assert sim.mimic_joint_names == ("right_finger_joint",)
+    assert sim.mimic_positions[0] == pytest.approx(sim.positions[finger], abs=1e-3)  # the coupling holds
     assert abs(sim.data.xpos[obj][2] - z_grasped) < 1e-3  # held in 0.7 s: not slipping out
     assert np.mean(fz) == pytest.approx(-(TOOL_MASS + 0.1) * G, rel=0.01)  # tool + held object
 
@@ -389,6 +428,7 @@ def test_viz_draws_both_robots_into_a_recording():
     (lambda: RobotSim("ur5e").step(0), "int >= 1"),
     (lambda: RobotSim("rrbot").wrench, "no force/torque sensor"),
     (lambda: RobotSim("ur5e").link_pose("hand"), "not a link"),
+    (lambda: RobotSim("ur5e").contact_force("wall"), "no geom 'wall'"),
 ])
 def test_bad_input_is_refused_with_the_rule(call, match):
     with pytest.raises((ValueError, AttributeError), match=match):

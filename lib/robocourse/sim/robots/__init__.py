@@ -30,14 +30,19 @@ API (stable; other packages build on it):
   (read-only float64 views, always current); ``commands`` (writable float64 view, read in each
   joint's mode); ``set_mode(joints, "position"|"velocity"|"effort")``; ``step(n=1)``; ``time``;
   ``reset(positions=None)``; ``gravity_torques(out=None)``; ``wrench`` (ur5e: flange F/T, N and
-  N m in tool0); ``link_pose(link)``; ``model``/``data`` (MuJoCo, e.g. for
+  N m in tool0); ``mimic_joint_names``/``mimic_positions``/``mimic_velocities``;
+  ``contact_force(geom)``; ``link_pose(link)``; ``model``/``data`` (MuJoCo, e.g. for
   ``robocourse.viz.MujocoDrawer(scene, sim.model)``).
+- ``Kinematics(name, tip=None)``: kinematics_interface's ``calculate_link_transform``,
+  ``calculate_jacobian``, ``convert_cartesian_deltas_to_joint_deltas`` and
+  ``convert_joint_deltas_to_cartesian_deltas`` over the chain base_link -> tip (tool0 on the ur5e).
 
 Units: rad, rad/s, N m (revolute); m, m/s, N (prismatic finger); s.
 """
 
 from .description import ROBOTS, JointLimits, joint_limits, urdf_path, urdf_text
+from .kinematics import Kinematics
 from .simulation import MODES, GraspObject, RobotSim, ServoGains, Wall
 
-__all__ = ["ROBOTS", "MODES", "JointLimits", "joint_limits", "urdf_path", "urdf_text", "RobotSim",
+__all__ = ["ROBOTS", "MODES", "JointLimits", "joint_limits", "urdf_path", "urdf_text", "Kinematics", "RobotSim",
            "ServoGains", "Wall", "GraspObject"]

@@ -208,9 +208,21 @@ class RobotSim:
         self._bias0 = m.actuator_biasprm[0:n, 0]  # the feed-forward slot, a strided view
         self._qfrc_bias = d.qfrc_bias[v0:v0 + n]
         self._ff_mask = np.zeros(n, dtype=bool)
+        self._ff_all = self._ff_any = False
+        self._ones = np.ones(n)
         self._modes = ["position"] * n
         self._index = {j: i for i, j in enumerate(self.joint_names)}
         self._mimic = [(m.joint(mj).qposadr[0], m.joint(limits[mj].mimic).qposadr[0]) for mj in self.mimic_joint_names]
+        mq = [m.joint(mj).qposadr[0] for mj in self.mimic_joint_names]
+        mv = [m.joint(mj).dofadr[0] for mj in self.mimic_joint_names]
+        if mq and (mq != list(range(mq[0], mq[0] + len(mq))) or mv != list(range(mv[0], mv[0] + len(mv)))):
+            raise RuntimeError(f"{name}: mimic joints are not contiguous in qpos/qvel; the views need it")
+        mq0, mv0 = (mq[0], mv[0]) if mq else (0, 0)
+        self.mimic_positions = d.qpos[mq0:mq0 + len(mq)]
+        self.mimic_velocities = d.qvel[mv0:mv0 + len(mv)]
+        for view in (self.mimic_positions, self.mimic_velocities):
+            view.flags.writeable = False
+        self._contact_wrench = np.zeros(6)
         if spec_info.ft_body is not None:
             fa, ta = m.sensor("ft_force").adr[0], m.sensor("ft_torque").adr[0]
             assert ta == fa + 3
@@ -295,6 +307,7 @@ class RobotSim:
                   "effort": (-lim.effort, lim.effort)}[mode]
         m.actuator_ctrlrange[i] = (max(lo, -1e10), min(hi, 1e10))
         self._ff_mask[i] = ff and self.gravity_feedforward
+        self._ff_all, self._ff_any = bool(self._ff_mask.all()), bool(self._ff_mask.any())
         self._modes[i] = mode
 
     def set_mode(self, joints: str | Sequence[str], mode: str) -> None:
@@ -324,13 +337,18 @@ class RobotSim:
         """Advance ``n`` physics steps with the current commands (hot path: no allocation)."""
         if n.__class__ is not int or n < 1:
             raise ValueError(f"step(n={n!r}): n must be an int >= 1")
-        total = float(self.commands.sum())
-        if total != total or total in (math.inf, -math.inf):
+        total = self.commands.dot(self._ones)  # NaN or inf anywhere makes the sum non-finite
+        if total - total != 0.0:
             bad = [(j, float(c)) for j, c in zip(self.joint_names, self.commands) if not math.isfinite(c)]
             raise ValueError(f"non-finite command {bad} at t={self.data.time:.4f} s: MuJoCo would zero "
                              "every control; write finite values to sim.commands")
         m, d, mj_step = self.model, self.data, self._mj.mj_step
-        if self._ff_mask.any():
+        if self._ff_all:  # the feed-forward of each physics step is the previous step's bias force
+            bias0, qfrc = self._bias0, self._qfrc_bias
+            for _ in range(n):
+                bias0[:] = qfrc
+                mj_step(m, d)
+        elif self._ff_any:
             bias0, qfrc, mask = self._bias0, self._qfrc_bias, self._ff_mask
             for _ in range(n):
                 np.copyto(bias0, qfrc, where=mask)
@@ -400,6 +418,25 @@ class RobotSim:
             raise AttributeError(f"{self.name} has no force/torque sensor (the ur5e has one at tool0)")
         np.negative(self._ft, out=self._wrench)
         return self._wrench
+
+    def contact_force(self, geom: str = "wall") -> np.ndarray:
+        """Total contact force (N, world frame) that everything touching ``geom`` exerts on it,
+        e.g. how hard the gripper pushes on the wall. A new array."""
+        mj, m, d = self._mj, self.model, self.data
+        try:
+            gid = m.geom(geom).id
+        except KeyError:
+            raise ValueError(f"no geom {geom!r} in this simulation (a Wall is named 'wall', "
+                             "a GraspObject 'object')") from None
+        total = np.zeros(3)
+        for k in range(d.ncon):
+            c = d.contact[k]
+            if gid not in (c.geom1, c.geom2):
+                continue
+            mj.mj_contactForce(m, d, k, self._contact_wrench)
+            f = c.frame.reshape(3, 3).T @ self._contact_wrench[:3]  # force on geom2, world frame
+            total += f if c.geom2 == gid else -f
+        return total
 
     def link_pose(self, link: str) -> tuple[np.ndarray, np.ndarray]:
         """World position (m) and 3x3 rotation of a URDF link's frame (copies)."""
