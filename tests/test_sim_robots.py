@@ -323,6 +323,16 @@ def test_set_mode_holds_the_current_position():
     q = sim.positions[2]
     sim.step(500)
     assert abs(sim.positions[2] - q) < 0.02  # stops near where it was, no jump back
+    assert sim.modes == dict.fromkeys(sim.joint_names, "position")
+
+
+def test_reset_puts_joints_and_the_mimic_finger_where_asked():
+    sim = RobotSim("ur5e")
+    sim.step(100)
+    sim.reset({"finger_joint": 0.013, "wrist_3_joint": 1.0})
+    assert sim.time == 0.0 and not sim.velocities.any()
+    assert sim.positions[5] == 1.0 and sim.commands[5] == 1.0  # position mode holds the new pose
+    assert sim.positions[6] == 0.013 and sim.mimic_positions[0] == 0.013
 
 
 def test_ft_sensor_reads_a_hanging_payload_weight_along_world_minus_z():
@@ -338,6 +348,18 @@ def test_ft_sensor_reads_a_hanging_payload_weight_along_world_minus_z():
     f_payload = rot.T @ np.array([0, 0, -2.0 * G])
     expected = np.cross([0, 0, 0.0834], f_payload)
     np.testing.assert_allclose(loaded.wrench[3:] - base.wrench[3:], expected, atol=1e-3)
+
+
+def test_ft_sensor_at_rest_reads_the_tool_weight_and_its_moment_in_any_pose():
+    sim = RobotSim("ur5e", payload_mass=0.5)
+    sim.reset(dict(zip(UR_JOINTS, [0.5, -1.2, 1.0, -0.3, 0.8, 1.1])))
+    sim.step(800)
+    mass, com = sim.tool_mass_properties()
+    assert mass == pytest.approx(TOOL_MASS + 0.5)
+    assert com[:2] == pytest.approx([0.0, 0.0], abs=1e-6) and 0.03 < com[2] < 0.0834
+    _, rot = sim.link_pose("tool0")
+    weight = rot.T @ np.array([0.0, 0.0, -mass * G])  # in the flange frame
+    np.testing.assert_allclose(sim.wrench, np.r_[weight, np.cross(com, weight)], atol=2e-3)
 
 
 def test_ft_sensor_reads_the_contact_force_of_a_table_pushing_back():
@@ -427,6 +449,7 @@ def test_viz_draws_both_robots_into_a_recording():
     (lambda: RobotSim("ur5e").reset([0.0] * 6), "7 finite numbers"),
     (lambda: RobotSim("ur5e").step(0), "int >= 1"),
     (lambda: RobotSim("rrbot").wrench, "no force/torque sensor"),
+    (lambda: RobotSim("rrbot").tool_mass_properties(), "no force/torque sensor"),
     (lambda: RobotSim("ur5e").link_pose("hand"), "not a link"),
     (lambda: RobotSim("ur5e").contact_force("wall"), "no geom 'wall'"),
 ])

@@ -31,7 +31,7 @@ API (stable; other packages build on it):
   joint's mode); ``set_mode(joints, "position"|"velocity"|"effort")``; ``step(n=1)``; ``time``;
   ``reset(positions=None)``; ``gravity_torques(out=None)``; ``wrench`` (ur5e: flange F/T, N and
   N m in tool0); ``mimic_joint_names``/``mimic_positions``/``mimic_velocities``;
-  ``contact_force(geom)``; ``link_pose(link)``; ``model``/``data`` (MuJoCo, e.g. for
+  ``tool_mass_properties()``; ``contact_force(geom)``; ``link_pose(link)``; ``model``/``data`` (MuJoCo, e.g. for
   ``robocourse.viz.MujocoDrawer(scene, sim.model)``).
 - ``Kinematics(name, tip=None)``: kinematics_interface's ``calculate_link_transform``,
   ``calculate_jacobian``, ``convert_cartesian_deltas_to_joint_deltas`` and

@@ -173,8 +173,6 @@ class RobotSim:
                                                              inertia=[i, i, i])
             payload.add_geom(name="payload", type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.03, 0, 0],
                              rgba=[0.9, 0.6, 0.1, 1], contype=_ROBOT_CONTYPE, conaffinity=_ROBOT_CONAFFINITY)
-        self.tcp_site = "tcp"
-        spec.body(spec_info.tcp_body).add_site(name="tcp")
         if spec_info.ft_body is not None:
             spec.body(spec_info.ft_body).add_site(name="ft_sensor")
             spec.add_sensor(name="ft_force", type=mujoco.mjtSensor.mjSENS_FORCE,
@@ -193,40 +191,29 @@ class RobotSim:
         m, d = self.model, self.data
 
         n = len(self.joint_names)
-        jids = [m.joint(j).id for j in self.joint_names]
-        qadr, dadr = m.jnt_qposadr[jids], m.jnt_dofadr[jids]
-        if list(qadr) != list(range(qadr[0], qadr[0] + n)) or list(dadr) != list(range(dadr[0], dadr[0] + n)):
-            raise RuntimeError(f"{name}: commanded joints are not contiguous in qpos/qvel; the views need it")
-        q0, v0 = int(qadr[0]), int(dadr[0])
-        self._dofs = slice(v0, v0 + n)
-        self.positions = d.qpos[q0:q0 + n]
-        self.velocities = d.qvel[v0:v0 + n]
-        self.efforts = d.actuator_force[0:n]
-        for view in (self.positions, self.velocities, self.efforts):
+        qpos, self._dofs = self._spans(self.joint_names)
+        self.positions, self.velocities, self.efforts = d.qpos[qpos], d.qvel[self._dofs], d.actuator_force[0:n]
+        mimic_qpos, mimic_dofs = self._spans(self.mimic_joint_names)
+        self.mimic_positions, self.mimic_velocities = d.qpos[mimic_qpos], d.qvel[mimic_dofs]
+        for view in (self.positions, self.velocities, self.efforts, self.mimic_positions, self.mimic_velocities):
             view.flags.writeable = False
         self.commands = d.ctrl[0:n]
         self._bias0 = m.actuator_biasprm[0:n, 0]  # the feed-forward slot, a strided view
-        self._qfrc_bias = d.qfrc_bias[v0:v0 + n]
+        self._qfrc_bias = d.qfrc_bias[self._dofs]
         self._ff_mask = np.zeros(n, dtype=bool)
         self._ff_all = self._ff_any = False
         self._ones = np.ones(n)
         self._modes = ["position"] * n
         self._index = {j: i for i, j in enumerate(self.joint_names)}
-        self._mimic = [(m.joint(mj).qposadr[0], m.joint(limits[mj].mimic).qposadr[0]) for mj in self.mimic_joint_names]
-        mq = [m.joint(mj).qposadr[0] for mj in self.mimic_joint_names]
-        mv = [m.joint(mj).dofadr[0] for mj in self.mimic_joint_names]
-        if mq and (mq != list(range(mq[0], mq[0] + len(mq))) or mv != list(range(mv[0], mv[0] + len(mv)))):
-            raise RuntimeError(f"{name}: mimic joints are not contiguous in qpos/qvel; the views need it")
-        mq0, mv0 = (mq[0], mv[0]) if mq else (0, 0)
-        self.mimic_positions = d.qpos[mq0:mq0 + len(mq)]
-        self.mimic_velocities = d.qvel[mv0:mv0 + len(mv)]
-        for view in (self.mimic_positions, self.mimic_velocities):
-            view.flags.writeable = False
+        # URDF <mimic> became joint equalities q1 = c0 + c1 q2 (+ c2 q2^2 ..., zero here)
+        self._mimic = [(int(m.jnt_qposadr[m.eq_obj1id[e]]), int(m.jnt_qposadr[m.eq_obj2id[e]]), m.eq_data[e, :5].copy())
+                       for e in range(m.neq) if m.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT]
         self._contact_wrench = np.zeros(6)
         if spec_info.ft_body is not None:
             fa, ta = m.sensor("ft_force").adr[0], m.sensor("ft_torque").adr[0]
             assert ta == fa + 3
             self._ft = d.sensordata[fa:fa + 6]
+            self._ft_body = m.body(spec_info.ft_body).id
             self._wrench = np.zeros(6)
         else:
             self._ft = None
@@ -239,6 +226,18 @@ class RobotSim:
         self.reset()
 
     # --- construction helpers ---------------------------------------------------------
+    def _spans(self, joints) -> tuple[slice, slice]:
+        """The qpos and qvel slices of ``joints`` (1-DOF each), which must be consecutive."""
+        m = self.model
+        spans = []
+        for table in (m.jnt_qposadr, m.jnt_dofadr):
+            adr = [int(table[m.joint(j).id]) for j in joints]
+            start = adr[0] if adr else 0
+            if adr != list(range(start, start + len(adr))):
+                raise RuntimeError(f"{self.name}: joints {joints} are not consecutive in MuJoCo's state")
+            spans.append(slice(start, start + len(adr)))
+        return spans[0], spans[1]
+
     def _initial_positions_from_urdf(self) -> np.ndarray:
         import xml.etree.ElementTree as ET
 
@@ -378,19 +377,15 @@ class RobotSim:
                                  "or not finite")
         m, d = self.model, self.data
         self._mj.mj_resetData(m, d)
-        d.qpos[self.positions_slice] = q
-        for qa, qsrc in self._mimic:  # mimic joints at multiplier 1, offset 0 (the shipped URDFs)
-            d.qpos[qa] = d.qpos[qsrc]
+        d.qpos[self._spans(self.joint_names)[0]] = q
+        for qa, qsrc, c in self._mimic:  # start with every mimic coupling satisfied
+            x = d.qpos[qsrc]
+            d.qpos[qa] = c[0] + x * (c[1] + x * (c[2] + x * (c[3] + x * c[4])))
         for i, mode in enumerate(self._modes):
             self.commands[i] = q[i] if mode == "position" else 0.0
         self._bias0[:] = 0.0
         self._mj.mj_forward(m, d)
         np.copyto(self._bias0, self._qfrc_bias, where=self._ff_mask)
-
-    @property
-    def positions_slice(self) -> slice:
-        a = int(self.model.jnt_qposadr[self.model.joint(self.joint_names[0]).id])
-        return slice(a, a + len(self.joint_names))
 
     # --- derived quantities --------------------------------------------------------------
     def gravity_torques(self, out: np.ndarray | None = None) -> np.ndarray:
@@ -418,6 +413,16 @@ class RobotSim:
             raise AttributeError(f"{self.name} has no force/torque sensor (the ur5e has one at tool0)")
         np.negative(self._ft, out=self._wrench)
         return self._wrench
+
+    def tool_mass_properties(self) -> tuple[float, np.ndarray]:
+        """Mass (kg) and centre of mass (m, in tool0) of everything the F/T sensor carries:
+        gripper, fingers at their current opening, payload. What an admittance controller's
+        ``gravity_compensation.CoG`` parameters describe."""
+        if self._ft is None:
+            raise AttributeError(f"{self.name} has no force/torque sensor (the ur5e has one at tool0)")
+        b = self._ft_body
+        rot = self.data.xmat[b].reshape(3, 3)
+        return float(self.model.body_subtreemass[b]), rot.T @ (self.data.subtree_com[b] - self.data.xpos[b])
 
     def contact_force(self, geom: str = "wall") -> np.ndarray:
         """Total contact force (N, world frame) that everything touching ``geom`` exerts on it,
