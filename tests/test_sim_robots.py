@@ -254,6 +254,22 @@ def test_state_views_are_current_read_only_and_never_reallocated():
     assert p.dtype == v.dtype == e.dtype == c.dtype == np.float64
 
 
+def test_step_allocates_nothing_that_outlives_it():
+    import tracemalloc
+
+    sim = RobotSim("ur5e")
+    sim.set_mode("wrist_3_joint", "effort")  # the masked feed-forward path as well
+    sim.step(10)
+    tracemalloc.start()
+    try:
+        for _ in range(2000):
+            sim.step()
+        current, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 2048  # bytes over 2000 steps: nothing accumulates per step
+
+
 @pytest.mark.parametrize("name", ["ur5e", "rrbot"])
 def test_position_servo_reaches_a_target_within_1_mrad_in_1_5_s(name):
     sim = RobotSim(name)
