@@ -31,13 +31,23 @@ API (stable; other packages build on it):
   joint's mode); ``set_mode(joints, "position"|"velocity"|"effort")``; ``step(n=1)``; ``time``;
   ``reset(positions=None)``; ``gravity_torques(out=None)``; ``wrench`` (ur5e: flange F/T, N and
   N m in tool0); ``mimic_joint_names``/``mimic_positions``/``mimic_velocities``;
-  ``tool_mass_properties()``; ``contact_force(geom)``; ``link_pose(link)``; ``model``/``data`` (MuJoCo, e.g. for
-  ``robocourse.viz.MujocoDrawer(scene, sim.model)``).
+  ``tool_mass_properties()``; ``contact_force(geom)``; ``link_pose(link)``; ``model``/``data``
+  (MuJoCo, e.g. for ``robocourse.viz.MujocoDrawer(scene, sim.model)``).
 - ``Kinematics(name, tip=None)``: kinematics_interface's ``calculate_link_transform``,
   ``calculate_jacobian``, ``convert_cartesian_deltas_to_joint_deltas`` and
   ``convert_joint_deltas_to_cartesian_deltas`` over the chain base_link -> tip (tool0 on the ur5e).
 
 Units: rad, rad/s, N m (revolute); m, m/s, N (prismatic finger); s.
+
+    sim = RobotSim("ur5e")
+    sim.set_mode(sim.joint_names[:6], "effort")
+    for _ in range(1000):  # 1 s at 1 kHz: the arm floats, held by its gravity torques
+        sim.commands[:6] = sim.gravity_torques()[:6]
+        sim.step()
+
+Where we differ from mujoco_ros2_control: no ROS node or plugin loading here (the
+ros2_control component in robocourse.control wraps RobotSim); the servo gains live in Python
+(``ServoGains``), not in the MJCF; position and velocity servos add a gravity feed-forward.
 """
 
 from .description import ROBOTS, JointLimits, joint_limits, urdf_path, urdf_text

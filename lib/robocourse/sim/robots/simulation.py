@@ -16,6 +16,14 @@ compensate gravity too), and 0 in effort mode: an effort-mode arm falls unless i
 adds ``gravity_torques()``. Commands are clamped to the joint's range (position), velocity limit
 (velocity) or effort limit (effort), as ``ctrlrange`` does.
 
+Around the URDF, the simulation adds (MJCF additions through MjSpec): a floor, two lights, the
+actuators, a force + torque sensor pair at tool0 (ur5e), optionally a ``Wall``, a free
+``GraspObject`` and a payload at the TCP. Robot geoms touch the environment but not each other;
+the fingers, the object and the mimic coupling use stiff constraints (time constant two
+physics steps) and elliptic friction cones, so a squeezed object neither sinks in nor slips.
+A non-finite command is refused by ``step()`` (ValueError) before MuJoCo would zero every
+control; a ros2_control component turns that into return_type ERROR.
+
 Units: rad, rad/s, N m for revolute joints; m, m/s, N for the gripper finger; wrench in N and
 N m in the flange frame ``tool0``; time in s.
 """
