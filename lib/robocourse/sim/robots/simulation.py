@@ -126,8 +126,9 @@ class RobotSim:
                  payload_mass: float = 0.0, floor: bool = True):
         import mujoco
 
-        if isinstance(timestep, bool) or not isinstance(timestep, (int, float)) or not 0 < timestep <= 0.01:
-            raise ValueError(f"timestep={timestep!r} s must be in (0, 0.01], e.g. 0.001 for 1 kHz physics")
+        if isinstance(timestep, bool) or not isinstance(timestep, (int, float)) or not 0 < timestep <= 0.005:
+            raise ValueError(f"timestep={timestep!r} s must be in (0, 0.005] (the servos and grasp contacts "
+                             "are checked from 0.5 to 5 ms), e.g. 0.001 for 1 kHz physics")
         if isinstance(payload_mass, bool) or not isinstance(payload_mass, (int, float)) \
                 or not 0 <= payload_mass <= 50 or not math.isfinite(payload_mass):
             raise ValueError(f"payload_mass={payload_mass!r} kg must be in [0, 50]")
