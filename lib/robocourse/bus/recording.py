@@ -24,6 +24,7 @@ import numpy as np
 
 from robocourse.bus.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from robocourse.msgs import definition_name, from_dict, full_definition, get_message_type, to_numpy
+from robocourse.msgs._core import wire_view
 
 _ids = itertools.count()
 
@@ -43,7 +44,8 @@ def _encoder(msg_type):
     from mcap_ros2._dynamic import serialize_dynamic
 
     name = definition_name(msg_type._type)
-    return serialize_dynamic(name, full_definition(msg_type))[name]
+    encode = serialize_dynamic(name, full_definition(msg_type))[name]
+    return lambda msg: encode(wire_view(msg))
 
 
 class Recorder:
@@ -109,7 +111,7 @@ class Recorder:
         def write(msg, name=name, schema=schema):
             t = clock._now_ns()
             self._seq += 1
-            writer.write_message(name, schema, msg, log_time=t, publish_time=t, sequence=self._seq)
+            writer.write_message(name, schema, wire_view(msg), log_time=t, publish_time=t, sequence=self._seq)
             self.counts[name] += 1
 
         self._subs[name] = self.node.create_subscription(msg_type, name, write, qos)

@@ -32,6 +32,7 @@ Services use :func:`service` (request and response separated by ``---``) and act
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass as _dataclass
 from typing import Any
@@ -538,6 +539,23 @@ def _to_dict(msg) -> dict:
         else:
             out[spec.name] = _to_dict(v)
     return out
+
+
+@functools.cache
+def _has_ndarray(msg_type: type) -> bool:
+    for spec in msg_type._fields:
+        if spec.is_primitive:
+            if spec.is_fixed_array and spec.base_type in NUMPY_DTYPES:
+                return True
+        elif _has_ndarray(_resolve(spec.base_type)):
+            return True
+    return False
+
+
+def wire_view(msg):
+    """What the ROS 2 CDR encoder (mcap_ros2) accepts for ``msg``: the message itself, or a
+    plain dict for types holding numpy fixed arrays (the encoder takes lists, not ndarrays)."""
+    return _to_dict(msg) if _has_ndarray(type(msg)) else msg
 
 
 def from_dict(msg_type: type, data) -> Any:

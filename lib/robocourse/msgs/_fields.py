@@ -135,7 +135,7 @@ class FieldRule:
             if type(v) is not bool:
                 if not isinstance(v, np.bool_):
                     self.fail(f"The '{name}' field must be of type 'bool'", v,
-                              f"pass True or False (bool(x) to convert)")
+                              "pass True or False (bool(x) to convert)")
                 v = bool(v)
             return v
         if type(v) is not str:
@@ -256,6 +256,8 @@ class FieldRule:
             return v
         if isinstance(v, array.array):
             v = v.tolist()
+        elif isinstance(v, (bytes, bytearray)) and dtype == np.uint8:   # CDR decoders give bytes
+            v = list(v)
         if len(v) != spec.array_size:
             self._seq_fail(v, range_error=True)
         self._numbers(v)
