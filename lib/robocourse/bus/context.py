@@ -13,6 +13,7 @@ from __future__ import annotations
 import threading
 import weakref
 
+from robocourse.bus import _args
 from robocourse.bus.clock import S_TO_NS, SimTime
 from robocourse.bus.qos import (
     DurabilityPolicy,
@@ -67,6 +68,9 @@ class Context:
     """A self-contained ROS graph. ``ctx.create_node("talker")`` makes a node on it."""
 
     def __init__(self, *, use_sim_time: bool = False, start_time: float = 0.0):
+        if not isinstance(use_sim_time, bool):
+            raise TypeError(f"Context: use_sim_time={use_sim_time!r} must be True or False")
+        _args.seconds(start_time, "Context(start_time)", name="start_time")
         self.use_sim_time = bool(use_sim_time)
         self.sim = SimTime(int(round(start_time * S_TO_NS))) if use_sim_time else None
         self._ok = True

@@ -17,6 +17,7 @@ list both.
 
 from __future__ import annotations
 
+from robocourse.bus import _args
 from robocourse.bus import names as _names
 from robocourse.bus.callback_groups import MutuallyExclusiveCallbackGroup
 from robocourse.bus.clock import ClockType, ROSClock
@@ -185,6 +186,7 @@ class Node(ParameterMixin):
         """rclpy Node.create_publisher; ``qos_profile`` may be an int depth (KEEP_LAST)."""
         self._check_alive()
         _check_msg_type(msg_type, "create_publisher")
+        _args.topic_name(topic, "create_publisher")
         qos = qos_from_arg(qos_profile)
         name = self.resolve_topic_name(topic)
         pub = Publisher(self, msg_type, name, qos, event_callbacks,
@@ -200,8 +202,8 @@ class Node(ParameterMixin):
         """rclpy Node.create_subscription; ``callback(msg)`` runs on the node's executor."""
         self._check_alive()
         _check_msg_type(msg_type, "create_subscription")
-        if not callable(callback):
-            raise TypeError(f"subscription callback must be callable, got {callback!r}")
+        _args.topic_name(topic, "create_subscription")
+        _args.callable_(callback, "create_subscription")
         qos = qos_from_arg(qos_profile)
         name = self.resolve_topic_name(topic)
         group = callback_group or self.default_callback_group
@@ -295,8 +297,8 @@ class Node(ParameterMixin):
                      autostart: bool = True) -> Timer:
         """rclpy Node.create_timer: ``callback()`` every ``timer_period_sec`` on the node clock."""
         self._check_alive()
-        if not callable(callback):
-            raise TypeError(f"timer callback must be callable, got {callback!r}")
+        _args.seconds(timer_period_sec, "create_timer(timer_period_sec)", name="timer_period_sec")
+        _args.callable_(callback, "create_timer")
         group = callback_group or self.default_callback_group
         t = Timer(self, timer_period_sec, callback, group, clock or self._clock, autostart)
         group.add_entity(t)
@@ -328,6 +330,7 @@ class Node(ParameterMixin):
         from robocourse.bus.service import Service
 
         self._check_alive()
+        _args.topic_name(srv_name, "create_service/create_client", "srv_name")
         name = self.resolve_service_name(srv_name)
         group = callback_group or self.default_callback_group
         srv = Service(self, srv_type, name, callback, qos_profile, group)
@@ -341,6 +344,7 @@ class Node(ParameterMixin):
         from robocourse.bus.service import Client
 
         self._check_alive()
+        _args.topic_name(srv_name, "create_service/create_client", "srv_name")
         name = self.resolve_service_name(srv_name)
         group = callback_group or self.default_callback_group
         cli = Client(self, srv_type, name, qos_profile, group)
