@@ -226,6 +226,15 @@ def parse_definition(text: str, package: str, where: str = "definition"):
     return fields, constants
 
 
+def _check_text_args(what: str, type_name, definition) -> None:
+    if not isinstance(type_name, str):
+        raise TypeError(f"{what}(type_name, definition): type_name={type_name!r} must be a str "
+                        f"such as 'my_pkg/msg/MyType'")
+    if not isinstance(definition, str):
+        raise TypeError(f"{what}({type_name!r}, definition): definition={definition!r:.60} must be "
+                        f"the .msg/.srv/.action text as a str, e.g. 'float64 x\\nfloat64 y'")
+
+
 def _resolve(type_name: str) -> type:
     try:
         return REGISTRY[type_name]
@@ -246,6 +255,7 @@ def message(type_name: str, definition: str):
     names and defaults), constants become class attributes, and it carries
     ``_type`` ("pkg/msg/Name"), ``_definition`` (the .msg text) and ``_fields`` (FieldSpec).
     """
+    _check_text_args("message", type_name, definition)
     m = _NAME_RE.match(type_name)
     if not m:
         raise MessageDefinitionError(
@@ -340,6 +350,7 @@ def _split_parts(text: str, n: int, type_name: str) -> list[str]:
 
 def service(type_name: str, definition: str) -> type:
     """Make a service type from .srv text (request ``---`` response)."""
+    _check_text_args("service", type_name, definition)
     m = _NAME_RE.match(type_name)
     if not m or m.group(2) != "srv":
         raise MessageDefinitionError(f"service type name {type_name!r} must look like 'pkg/srv/Name'")
@@ -366,6 +377,7 @@ def action(type_name: str, definition: str) -> type:
     Besides ``Goal``, ``Result`` and ``Feedback`` the type carries the wire types rclpy uses
     under ``Impl``: ``SendGoalService``, ``GetResultService`` and ``FeedbackMessage``.
     """
+    _check_text_args("action", type_name, definition)
     m = _NAME_RE.match(type_name)
     if not m or m.group(2) != "action":
         raise MessageDefinitionError(f"action type name {type_name!r} must look like 'pkg/action/Name'")
@@ -418,6 +430,10 @@ def is_message_type(obj) -> bool:
 
 def get_message_type(type_name: str) -> type:
     """Look up a registered type by full name (``"geometry_msgs/msg/Twist"``) or ``pkg/Name``."""
+    if not isinstance(type_name, str) or type_name.count("/") not in (1, 2):
+        raise MessageDefinitionError(
+            f"get_message_type: {type_name!r} must be a type name such as "
+            f"'geometry_msgs/msg/Twist' or 'geometry_msgs/Twist'")
     if type_name.count("/") == 1:
         if type_name in ALIASES:
             return _resolve(ALIASES[type_name])
