@@ -24,6 +24,8 @@ Then the per-message cost of the copy against rclpy's way (CDR serialize on publ
 deserialize per subscription, measured with mcap_ros2's CDR codec, the anchor to beat), and
 the CPU use of a 1 kHz, 5-node graph on the wall clock (process CPU time / wall time).
 Every row reports medians over repeats; ratios are relative to the bus same-executor row.
+"CPU us/msg" is process CPU time per message of the flat-out loop: on a shared machine it is
+steadier than msgs/s (wall clock), which other processes halve or double from run to run.
 """
 
 from __future__ import annotations
@@ -101,12 +103,12 @@ def bus_same_executor(n):
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(a)
     ex.add_node(b)
-    t0 = now()
+    t0, c0 = now(), time.process_time()
     ex.spin_until_future_complete(fut)
-    elapsed = (now() - t0) / 1e9
+    elapsed, cpu = (now() - t0) / 1e9, time.process_time() - c0
     timer.cancel()
     p50, p99 = pct(lat)
-    return p50, p99, n / elapsed
+    return p50, p99, n / elapsed, cpu / n * 1e6
 
 
 def joint_state(n_joints):
@@ -162,12 +164,12 @@ def bus_same_executor_sized(n, msg_type, make, field):
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(a)
     ex.add_node(b)
-    t0 = now()
+    t0, c0 = now(), time.process_time()
     ex.spin_until_future_complete(fut)
-    elapsed = (now() - t0) / 1e9
+    elapsed, cpu = (now() - t0) / 1e9, time.process_time() - c0
     timer.cancel()
     p50, p99 = pct(lat)
-    return p50, p99, n / elapsed
+    return p50, p99, n / elapsed, cpu / n * 1e6
 
 
 def copy_costs(n):
@@ -390,22 +392,21 @@ def fmt(x, spec):
 
 
 def run_rows(n_lat, n_cross, period_us, session):
-    """One repeat of every latency/throughput row: {name: (p50, p99, rate or nan)}."""
+    """One repeat of every row: {name: (p50 us, p99 us, msgs/s wall, CPU us per msg)}."""
     nan = float("nan")
     rows = {}
-    p50, p99, rate = bus_same_executor(n_lat)
-    rows["bus: same executor (timer -> sub), Int64"] = (p50, p99, rate)
-    rows["bus: KEEP_ALL burst delivery, Int64"] = (nan, nan, bus_burst_throughput(n_lat * 2))
+    rows["bus: same executor (timer -> sub), Int64"] = bus_same_executor(n_lat)
+    rows["bus: KEEP_ALL burst delivery, Int64"] = (nan, nan, bus_burst_throughput(n_lat * 2), nan)
     for name, (t, make, field) in SIZED.items():
         n = n_lat // 10 if "100 kB" not in name else max(200, n_lat // 200)
         rows[f"bus: same executor, {name}"] = bus_same_executor_sized(n, t, make, field)
-    rows[f"bus: cross-thread publisher ({period_us} us pacing)"] = (*bus_cross_thread(n_cross, period_us), nan)
-    rows[f"queue.Queue thread hand-off ({period_us} us pacing)"] = (*queue_handoff(n_cross, period_us), nan)
-    rows["queue.Queue put+get, one thread"] = queue_same_thread(n_lat)
+    rows[f"bus: cross-thread publisher ({period_us} us pacing)"] = (*bus_cross_thread(n_cross, period_us), nan, nan)
+    rows[f"queue.Queue thread hand-off ({period_us} us pacing)"] = (*queue_handoff(n_cross, period_us), nan, nan)
+    rows["queue.Queue put+get, one thread"] = (*queue_same_thread(n_lat), nan)
     if session is not None:
         paced_p, flat_p, zrate = zenoh_rows(session, n_cross, period_us)
-        rows[f"zenoh same session put -> callback ({period_us} us pacing)"] = (*paced_p, nan)
-        rows["zenoh same session put -> callback (flat out)"] = (*flat_p, zrate)
+        rows[f"zenoh same session put -> callback ({period_us} us pacing)"] = (*paced_p, nan, nan)
+        rows["zenoh same session put -> callback (flat out)"] = (*flat_p, zrate, nan)
     return rows
 
 
@@ -462,33 +463,37 @@ def main(argv=None):
         session.close()
 
     def summary(rows):
-        return {k: tuple(med([x[i] for x in v]) for i in range(3)) for k, v in rows.items()}
+        return {k: tuple(med([x[i] for x in v]) for i in range(4)) for k, v in rows.items()}
 
     sn, so = summary(new), summary(old)
     base = "bus: same executor (timer -> sub), Int64"
-    b50, b99, brate = sn[base]
+    b50, b99, brate, _ = sn[base]
     print(f"\nrobocourse.bus latency benchmark: {reps} repeats (medians), Python "
           f"{sys.version.split()[0]}, {os.cpu_count()} CPUs, library {LIB}")
     print("The machine is shared and noisy: compare ratios from this one run, not absolute figures.\n")
-    hdr = f"{'path':62s} {'p50 us':>8s} {'p99 us':>8s} {'msgs/s':>10s} {'p50/bus':>8s} {'p99/bus':>8s}"
+    hdr = (f"{'path':62s} {'p50 us':>8s} {'p99 us':>8s} {'msgs/s':>10s} {'CPU us/msg':>10s} "
+           f"{'p50/bus':>8s} {'p99/bus':>8s}")
     print(hdr)
     print("-" * len(hdr))
-    for name, (p50, p99, rate) in sn.items():
+    for name, (p50, p99, rate, cpu) in sn.items():
         print(f"{name:62s} {fmt(p50, '{:8.2f}'):>8s} {fmt(p99, '{:8.2f}'):>8s} "
-              f"{fmt(rate, '{:10.0f}'):>10s} {fmt(p50 / b50, '{:8.2f}'):>8s} {fmt(p99 / b99, '{:8.2f}'):>8s}")
+              f"{fmt(rate, '{:10.0f}'):>10s} {fmt(cpu, '{:10.2f}'):>10s} "
+              f"{fmt(p50 / b50, '{:8.2f}'):>8s} {fmt(p99 / b99, '{:8.2f}'):>8s}")
     if so:
         print(f"\nOld vs new, same run (baseline library {os.path.abspath(args.baseline_lib)}):\n")
         hdr = (f"{'path':62s} {'old p50':>8s} {'new p50':>8s} {'ratio':>6s} {'old p99':>8s} "
-               f"{'new p99':>8s} {'ratio':>6s} {'old msg/s':>10s} {'new msg/s':>10s}")
+               f"{'new p99':>8s} {'ratio':>6s} {'old msg/s':>10s} {'new msg/s':>10s} "
+               f"{'old CPU us':>10s} {'new CPU us':>10s} {'ratio':>6s}")
         print(hdr)
         print("-" * len(hdr))
-        for name, (p50, p99, rate) in sn.items():
+        for name, (p50, p99, rate, cpu) in sn.items():
             if name not in so or name.startswith(("queue", "zenoh")):
                 continue
-            o50, o99, orate = so[name]
+            o50, o99, orate, ocpu = so[name]
             print(f"{name:62s} {fmt(o50, '{:8.2f}'):>8s} {fmt(p50, '{:8.2f}'):>8s} "
                   f"{fmt(p50 / o50, '{:6.2f}'):>6s} {fmt(o99, '{:8.2f}'):>8s} {fmt(p99, '{:8.2f}'):>8s} "
-                  f"{fmt(p99 / o99, '{:6.2f}'):>6s} {fmt(orate, '{:10.0f}'):>10s} {fmt(rate, '{:10.0f}'):>10s}")
+                  f"{fmt(p99 / o99, '{:6.2f}'):>6s} {fmt(orate, '{:10.0f}'):>10s} {fmt(rate, '{:10.0f}'):>10s} "
+                  f"{fmt(ocpu, '{:10.2f}'):>10s} {fmt(cpu, '{:10.2f}'):>10s} {fmt(cpu / ocpu, '{:6.2f}'):>6s}")
     costs = copy_costs(20_000 if not args.quick else 2000)
     print("\nPer-message cost of value semantics (best of 3, us): the generated copy vs rclpy's CDR "
           "serialize + deserialize (mcap_ros2 codec)\n")
@@ -503,7 +508,7 @@ def main(argv=None):
           f"{', '.join(f'{p:.1f}%' for p in pcts)}); ticks {cpu_new[-1][1]}, commands applied "
           f"{cpu_new[-1][2]}, estimates logged {cpu_new[-1][3]}"
           + (f"; baseline library {statistics.median(cpu_old):.1f}%" if cpu_old else ""))
-    js = sn.get("bus: same executor, JointState 7 joints (300 B CDR)", (float("nan"),) * 3)
+    js = sn.get("bus: same executor, JointState 7 joints (300 B CDR)", (float("nan"),) * 4)
     print("\nGoals (issue 9): small-message same-executor p50 <= 5 us, p99 <= 15 us, ahead of zenoh "
           "and queue.Queue; JointState(7) p50 <= 15 us; 1 kHz 5-node graph < 10% of one core.")
     print(f"  same-executor Int64 p50 {b50:.2f} us, p99 {b99:.2f} us, {brate:,.0f} msgs/s; "
