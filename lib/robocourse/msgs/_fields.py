@@ -128,7 +128,8 @@ class FieldRule:
             lo, hi = self.ranges[base]
             if not lo <= v <= hi:
                 self.fail(f"The '{name}' field must be {_range_text(base, self.ranges)}", v,
-                          f"keep {base} values in [{lo}, {hi}] or use a wider type in the .msg",
+                          f"keep {base} values in [{lo}, {hi}]"
+                          + ("" if base.endswith("64") else " or use a wider type in the .msg"),
                           range_error=True)
             return v
         if kind == "bool":
