@@ -181,11 +181,16 @@ def test_a_loss_on_a_reliable_link_holds_back_the_samples_behind_it():
     assert link.retransmitted > 0 and max(times) >= 20_000_000 + 10_000_000
 
 
-def test_link_on_another_topic_or_node_pair_does_not_apply():
+def best_effort_pair():
     ctx, a, b, ex = graph()
     pub = a.create_publisher(Int64, "t", BE)
     got = []
     b.create_subscription(Int64, "t", got.append, BE)
+    return ctx, ex, pub, got
+
+
+def test_link_on_another_topic_or_node_pair_does_not_apply():
+    ctx, ex, pub, got = best_effort_pair()
     other = ctx.set_link(topic="/other", loss=0.9, seed=0)
     pair = ctx.set_link(publisher_node="/listener", subscription_node="/talker", loss=0.9)
     for k in range(50):
@@ -195,10 +200,7 @@ def test_link_on_another_topic_or_node_pair_does_not_apply():
 
 
 def test_removing_a_link_restores_lossless_delivery():
-    ctx, a, b, ex = graph()
-    pub = a.create_publisher(Int64, "t", BE)
-    got = []
-    b.create_subscription(Int64, "t", got.append, BE)
+    ctx, ex, pub, got = best_effort_pair()
     link = ctx.set_link(topic="/t", loss=0.5, seed=2)
     for k in range(100):
         pub.publish(Int64(data=k))

@@ -35,6 +35,15 @@ def graph(use_sim_time=True):
     return ctx, ctx.create_node("talker"), ctx.create_node("listener")
 
 
+def publish_reusing_one_float64(pub, n):
+    """The rclpy pattern: one message object, changed and published n times."""
+    msg = Float64()
+    for i in range(n):
+        msg.data = float(i)
+        pub.publish(msg)
+    return msg
+
+
 def spin(ctx, *nodes, seconds=0.01):
     ex = SingleThreadedExecutor(context=ctx)
     for n in nodes:
@@ -49,10 +58,7 @@ def test_reusing_one_message_object_delivers_each_published_value():
     pub = a.create_publisher(Float64, "x", 10)
     got = []
     b.create_subscription(Float64, "x", lambda m: got.append(m.data), 10)
-    msg = Float64()
-    for i in range(5):
-        msg.data = float(i)
-        pub.publish(msg)
+    publish_reusing_one_float64(pub, 5)
     spin(ctx, a, b)
     assert got == [0.0, 1.0, 2.0, 3.0, 4.0]
 
@@ -162,36 +168,31 @@ def test_lifespan_path_copies_too():
     pub = a.create_publisher(Float64, "x", QoSProfile(depth=10, lifespan=1.0))
     got = []
     b.create_subscription(Float64, "x", lambda m: got.append(m.data), 10)
-    msg = Float64()
-    for i in range(3):
-        msg.data = float(i)
-        pub.publish(msg)
+    publish_reusing_one_float64(pub, 3)
     spin(ctx, a, b)
     assert got == [0.0, 1.0, 2.0]
 
 
-def test_recording_stores_the_values_as_published(tmp_path):
-    ctx, a, b = graph()
+def recorded_talker(tmp_path):
+    """A talker on /x being recorded: (ctx, publisher, executor, recorder)."""
+    ctx, a, _ = graph()
     pub = a.create_publisher(Float64, "/x", 10)
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(a)
-    rec = record(ctx, tmp_path / "r.mcap", ["/x"], executor=ex)
-    msg = Float64()
-    for i in range(4):
-        msg.data = float(i)
-        pub.publish(msg)
-    msg.data = 100.0
+    return ctx, pub, ex, record(ctx, tmp_path / "r.mcap", ["/x"], executor=ex)
+
+
+def test_recording_stores_the_values_as_published(tmp_path):
+    ctx, pub, ex, rec = recorded_talker(tmp_path)
+    msg = publish_reusing_one_float64(pub, 4)
+    msg.data = 100.0                        # after publishing: not in the recording
     ex.spin_for(0.01)
     data = rec.read().to_numpy("/x")
     assert data["data"].tolist() == [0.0, 1.0, 2.0, 3.0]
 
 
 def test_replay_gives_each_subscriber_its_own_copy_and_leaves_the_recording_intact(tmp_path):
-    ctx, a, b = graph()
-    pub = a.create_publisher(Float64, "/x", 10)
-    ex = SingleThreadedExecutor(context=ctx)
-    ex.add_node(a)
-    rec = record(ctx, tmp_path / "r.mcap", ["/x"], executor=ex)
+    ctx, pub, ex, rec = recorded_talker(tmp_path)
     for i in range(3):
         pub.publish(Float64(data=float(i)))
     ex.spin_for(0.01)

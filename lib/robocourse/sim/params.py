@@ -14,6 +14,14 @@ from dataclasses import dataclass
 GRAVITY = 9.80665  # the pendulum seed's constant
 
 
+def _require_positive(params, names, rule: str) -> None:
+    """Refuse a parameter that is not a positive finite number (``rule`` names it)."""
+    for name in names:
+        v = getattr(params, name)
+        if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise ValueError(f"{rule.format(name)}, got {v!r}")
+
+
 @dataclass
 class PendulumProperties:
     """``PendulumProperties``: mass of the weight (kg) and length (m), the seed's defaults."""
@@ -22,10 +30,7 @@ class PendulumProperties:
     length: float = 0.5
 
     def __post_init__(self):
-        for name in ("mass", "length"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"pendulum {name} must be a positive finite number, got {value!r}")
+        _require_positive(self, ("mass", "length"), "pendulum {} must be a positive finite number")
 
 
 @dataclass(frozen=True)
@@ -41,10 +46,8 @@ class CartPoleParams:
     noise: float = 1.0
 
     def __post_init__(self):
-        for name in ("pole_mass", "cart_mass", "length", "max_force"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"cart-pole {name} must be positive, got {v!r}")
+        _require_positive(self, ("pole_mass", "cart_mass", "length", "max_force"),
+                          "cart-pole {} must be positive")
         if not (math.isfinite(self.damping) and self.damping >= 0 and self.noise >= 0):
             raise ValueError(f"damping and noise must be >= 0, got {self.damping!r}, {self.noise!r}")
 
@@ -58,10 +61,8 @@ class DiffDriveGeometry:
     max_linear_speed: float = 0.5
 
     def __post_init__(self):
-        for name in ("wheel_base", "wheel_radius", "max_linear_speed"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a positive number of metres (per second), got {v!r}")
+        _require_positive(self, ("wheel_base", "wheel_radius", "max_linear_speed"),
+                          "{} must be a positive number of metres (per second)")
 
 
 def quaternion_to_yaw(x: float, y: float, z: float, w: float) -> float:
