@@ -25,6 +25,7 @@ from __future__ import annotations
 import heapq
 import math
 import random
+import threading
 
 from robocourse.bus.qos import QoSMessageLostInfo, ReliabilityPolicy
 
@@ -117,6 +118,7 @@ class LinkDelivery:
         self.inner = inner          # the pair's plain delivery (sub._deliver or deadline-aware)
         self.reliable = pair_is_reliable(pub, sub)
         self._heap = []
+        self._lock = threading.Lock()   # a publisher thread pushes while the executor pops
         self._seq = 0
         self._last_due = 0
         self._clock = sub._node.get_clock()
@@ -147,19 +149,22 @@ class LinkDelivery:
             while rng.random() < link.loss:
                 delay += link.retransmit_delay
                 link.retransmitted += 1
-        if delay == 0.0 and not self._heap:
+        if delay == 0.0 and not self._heap:     # nothing queued ahead: hand over now
             link.delivered += 1
             self.inner(msg)
             return
-        due = self._clock._now_ns() + int(round(delay * 1e9))
-        if self.reliable and due < self._last_due:
-            due = self._last_due            # in-order hand-over: wait behind the earlier sample
-        self._last_due = due
-        self._seq += 1
-        heapq.heappush(self._heap, (due, self._seq, msg))
-        t = self.timer
-        if t._next_ns is None or due < t._next_ns:
-            t._next_ns = due
+        with self._lock:
+            due = self._clock._now_ns() + int(round(delay * 1e9))
+            if self.reliable and due < self._last_due:
+                due = self._last_due        # in-order hand-over: wait behind the earlier sample
+            self._last_due = due
+            self._seq += 1
+            heapq.heappush(self._heap, (due, self._seq, msg))
+            t = self.timer
+            earlier = t._next_ns is None or due < t._next_ns
+            if earlier:
+                t._next_ns = due
+        if earlier:
             ex = t._executor
             if ex is not None:
                 ex._wake()
@@ -175,11 +180,14 @@ class LinkDelivery:
         """Timer callback: hand every sample whose time has come to the subscription."""
         now = self._clock._now_ns()
         heap = self._heap
-        while heap and heap[0][0] <= now:
-            _, _, msg = heapq.heappop(heap)
+        due = []
+        with self._lock:
+            while heap and heap[0][0] <= now:
+                due.append(heapq.heappop(heap)[2])
+            self.timer._next_ns = heap[0][0] if heap else None
+        for msg in due:
             self.link.delivered += 1
             self.inner(msg)
-        self.timer._next_ns = heap[0][0] if heap else None
 
     @property
     def in_flight(self) -> int:
