@@ -19,9 +19,11 @@ from __future__ import annotations
 
 import functools
 import itertools
+import os
 
 import numpy as np
 
+from robocourse.bus import _args
 from robocourse.bus.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from robocourse.msgs import definition_name, from_dict, full_definition, get_message_type, to_numpy
 from robocourse.msgs._core import wire_view
@@ -38,6 +40,25 @@ def _attach(node, ctx, executor) -> None:
     for ex in list(ctx._executors):
         ex.add_node(node)
         break
+
+
+def _context_of(context, what):
+    """A Context, or the context of a Node."""
+    from robocourse.bus.context import Context
+
+    ctx = context.context if hasattr(context, "get_fully_qualified_name") else context
+    if not isinstance(ctx, Context):
+        raise TypeError(f"{what} needs a Context or a Node, got {context!r:.80}; e.g. "
+                        f"{what}(ctx, ...) with ctx = Context(use_sim_time=True)")
+    return ctx
+
+
+def _check_topics(topics, what):
+    if topics is None:
+        return
+    if isinstance(topics, str) or not all(isinstance(x, str) for x in topics):
+        raise TypeError(f"{what}: topics={topics!r} must be a list of topic names such as "
+                        f"['/cmd_vel'], or None for every topic")
 
 
 def _encoder(msg_type):
@@ -61,7 +82,11 @@ class Recorder:
 
         from robocourse.bus.node import Node
 
-        ctx = context.context if hasattr(context, "get_fully_qualified_name") else context
+        ctx = _context_of(context, "record")
+        _check_topics(topics, "record")
+        if not isinstance(path, (str, os.PathLike)):
+            raise TypeError(f"record: path={path!r} must be a file path (str or pathlib.Path), "
+                            f"e.g. 'run.mcap'")
         self.context = ctx
         self.path = str(path)
         self._file = open(self.path, "wb")
@@ -205,11 +230,13 @@ class Player:
                  remap: dict | None = None, qos=None, executor=None):
         from robocourse.bus.node import Node
 
+        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0:
+            raise ValueError(f"replay: rate={rate!r} must be a number > 0 (1.0 = recorded speed)")
+        _args.seconds(delay, "replay(delay)", name="delay")
+        _check_topics(topics, "replay")
+        ctx = _context_of(context, "replay")
         if isinstance(recording, (str, bytes)) or hasattr(recording, "__fspath__"):
             recording = Recording(recording)
-        if rate <= 0:
-            raise ValueError(f"rate must be > 0, got {rate}")
-        ctx = context.context if hasattr(context, "get_fully_qualified_name") else context
         self.node = Node(f"_player_{next(_ids)}", context=ctx)
         remap = remap or {}
         entries = [e for e in recording.entries if topics is None or e[1] in topics]
