@@ -1,6 +1,10 @@
 """robocourse.bus latency, throughput and CPU, side by side with baselines in the same run.
 
-    PYTHONPATH=lib python benchmarks/bus_latency.py [--quick]
+    python benchmarks/bus_latency.py [--quick] [--baseline-lib /path/to/old/lib]
+
+``--baseline-lib`` runs the same rows against another robocourse tree (e.g. ``git archive main``
+unpacked in /tmp) in a subprocess, interleaved repeat by repeat with this tree's, and prints
+both with ratios: an old-vs-new table from one run on one (noisy) machine.
 
 Rows:
 - bus, same executor: a timer callback publishes a small message (std_msgs/Int64 carrying
@@ -11,13 +15,23 @@ Rows:
 - queue.Queue: a thread puts the stamp, another thread get()s it (the classic hand-off).
 - zenoh: eclipse-zenoh same-session put -> subscriber callback (benchmark-only dependency:
   pip install -r benchmarks/requirements.txt).
-Then the CPU use of a 1 kHz, 5-node graph on the wall clock (process CPU time / wall time).
+- bus, same executor, larger messages: a timer publishes one reused message (the rclpy
+  pattern ``msg.position[0] = x; pub.publish(msg)``): JointState with 7 joints (300 B as CDR),
+  JointState with 25 joints (1 kB) and a Float64MultiArray of 12800 doubles (100 kB); latency
+  is publish() -> start of the callback. Value semantics copy every message once per
+  subscription, so these rows show how that cost grows with size.
+Then the per-message cost of the copy against rclpy's way (CDR serialize on publish +
+deserialize per subscription, measured with mcap_ros2's CDR codec, the anchor to beat), and
+the CPU use of a 1 kHz, 5-node graph on the wall clock (process CPU time / wall time).
 Every row reports medians over repeats; ratios are relative to the bus same-executor row.
+"CPU us/msg" is process CPU time per message of the flat-out loop: on a shared machine it is
+steadier than msgs/s (wall clock), which other processes halve or double from run to run.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import queue
 import statistics
@@ -28,7 +42,15 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "lib"))
+
+def _lib_path(argv):
+    if "--lib" in argv:
+        return argv[argv.index("--lib") + 1]
+    return os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "lib")
+
+
+LIB = os.path.abspath(_lib_path(sys.argv))
+sys.path.insert(0, LIB)
 
 from robocourse.bus import (  # noqa: E402
     Context,
@@ -36,6 +58,7 @@ from robocourse.bus import (  # noqa: E402
     QoSProfile,
     SingleThreadedExecutor,
 )
+from robocourse.msgs.sensor_msgs import JointState  # noqa: E402
 from robocourse.msgs.std_msgs import Float64MultiArray, Int64  # noqa: E402
 
 now = time.perf_counter_ns
@@ -50,42 +73,105 @@ def pct(lat_ns):
 # ------------------------------------------------------------------------------- bus rows
 
 
-def bus_same_executor(n):
-    """Latency and loop rate: timer (period 0) publishes, subscription receives."""
+def same_executor_run(n, msg_type, tick, sent_ns):
+    """A timer (period 0) calls ``tick(pub)``; a subscription on the same executor records
+    ``now() - sent_ns(msg)`` for the first n messages. Returns p50 us, p99 us, msgs/s (wall)
+    and CPU us per message of the whole loop (timer + publish + delivery + callback)."""
+    from robocourse.bus import Future
+
     ctx = Context()
     ctx.log_to_stderr = False
     a, b = ctx.create_node("talker"), ctx.create_node("listener")
-    pub = a.create_publisher(Int64, "lat", 10)
+    pub = a.create_publisher(msg_type, "lat", 10)
     lat = np.empty(n, dtype=np.int64)
     state = {"i": 0}
-
-    def tick():
-        pub.publish(Int64(data=now()))
-
-    from robocourse.bus import Future
-
     fut = Future()
 
     def cb(msg):
         t = now()
         i = state["i"]
         if i < n:
-            lat[i] = t - msg.data
+            lat[i] = t - sent_ns(msg)
             state["i"] = i + 1
             if i + 1 == n:
                 fut.set_result(True)
 
-    timer = a.create_timer(0.0, tick)
-    b.create_subscription(Int64, "lat", cb, 10)
+    timer = a.create_timer(0.0, lambda: tick(pub))
+    b.create_subscription(msg_type, "lat", cb, 10)
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(a)
     ex.add_node(b)
-    t0 = now()
+    t0, c0 = now(), time.process_time()
     ex.spin_until_future_complete(fut)
-    elapsed = (now() - t0) / 1e9
+    elapsed, cpu = (now() - t0) / 1e9, time.process_time() - c0
     timer.cancel()
     p50, p99 = pct(lat)
-    return p50, p99, n / elapsed
+    return p50, p99, n / elapsed, cpu / n * 1e6
+
+
+def bus_same_executor(n):
+    """A new Int64 carrying perf_counter_ns per publish (construction included)."""
+    return same_executor_run(n, Int64, lambda pub: pub.publish(Int64(data=now())),
+                             lambda msg: msg.data)
+
+
+def joint_state(n_joints):
+    return JointState(name=[f"joint_{i}" for i in range(n_joints)], position=[0.1] * n_joints,
+                      velocity=[0.0] * n_joints, effort=[0.0] * n_joints)
+
+
+def big_array(n_doubles=12_800):
+    return Float64MultiArray(data=[0.5] * n_doubles)
+
+
+SIZED = {
+    "JointState 7 joints (300 B CDR)": (JointState, lambda: joint_state(7), "position"),
+    "JointState 25 joints (1 kB CDR)": (JointState, lambda: joint_state(25), "position"),
+    "Float64MultiArray 12800 (100 kB CDR)": (Float64MultiArray, big_array, "data"),
+}
+
+
+def bus_same_executor_sized(n, msg_type, make, field):
+    """Latency publish() -> callback of one reused message changed before each publish."""
+    msg = make()
+    arr = getattr(msg, field)
+    stamps = np.empty(n + 1, dtype=np.int64)
+    k = [0]
+
+    def tick(pub):
+        i = min(k[0], n)
+        arr[0] = float(i)
+        k[0] += 1
+        stamps[i] = now()
+        pub.publish(msg)
+
+    return same_executor_run(n, msg_type, tick, lambda m: stamps[int(getattr(m, field)[0])])
+
+
+def copy_costs(n):
+    """us per message: the generated copy vs CDR serialize + deserialize (rclpy's way)."""
+    import timeit
+
+    from mcap_ros2._dynamic import generate_dynamic, serialize_dynamic
+
+    from robocourse.msgs import definition_name, full_definition
+
+    out = {}
+    cases = {"Int64": (Int64, lambda: Int64(data=5))}
+    cases.update({k: (t, make) for k, (t, make, _) in SIZED.items()})
+    for name, (t, make) in cases.items():
+        msg = make()
+        schema = definition_name(t._type)
+        enc = serialize_dynamic(schema, full_definition(t))[schema]
+        dec = generate_dynamic(schema, full_definition(t))[schema]
+        reps = max(20, n // (1 if name == "Int64" else 20 if "100 kB" not in name else 2000))
+        row = {"cdr_bytes": len(enc(msg))}
+        row["cdr_us"] = min(timeit.repeat(lambda d=dec, e=enc, m=msg: d(e(m)), number=reps,
+                                          repeat=3)) / reps * 1e6
+        if hasattr(msg, "_copy"):
+            row["copy_us"] = min(timeit.repeat(msg._copy, number=reps, repeat=3)) / reps * 1e6
+        out[name] = row
+    return out
 
 
 def bus_burst_throughput(n):
@@ -281,71 +367,128 @@ def fmt(x, spec):
     return "-" if x != x else spec.format(x)
 
 
+def run_rows(n_lat, n_cross, period_us, session):
+    """One repeat of every row: {name: (p50 us, p99 us, msgs/s wall, CPU us per msg)}."""
+    nan = float("nan")
+    rows = {}
+    rows["bus: same executor (timer -> sub), Int64"] = bus_same_executor(n_lat)
+    rows["bus: KEEP_ALL burst delivery, Int64"] = (nan, nan, bus_burst_throughput(n_lat * 2), nan)
+    for name, (t, make, field) in SIZED.items():
+        n = n_lat // 10 if "100 kB" not in name else max(200, n_lat // 200)
+        rows[f"bus: same executor, {name}"] = bus_same_executor_sized(n, t, make, field)
+    rows[f"bus: cross-thread publisher ({period_us} us pacing)"] = (*bus_cross_thread(n_cross, period_us), nan, nan)
+    rows[f"queue.Queue thread hand-off ({period_us} us pacing)"] = (*queue_handoff(n_cross, period_us), nan, nan)
+    rows["queue.Queue put+get, one thread"] = (*queue_same_thread(n_lat), nan)
+    if session is not None:
+        paced_p, flat_p, zrate = zenoh_rows(session, n_cross, period_us)
+        rows[f"zenoh same session put -> callback ({period_us} us pacing)"] = (*paced_p, nan, nan)
+        rows["zenoh same session put -> callback (flat out)"] = (*flat_p, zrate, nan)
+    return rows
+
+
+def cpu_runs(secs, k):
+    return [five_node_graph_cpu(secs) for _ in range(k)]
+
+
+def med(values):
+    values = [v for v in values if v == v]
+    return statistics.median(values) if values else float("nan")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="fewer samples (smoke run)")
     ap.add_argument("--repeats", type=int, default=None)
+    ap.add_argument("--lib", default=None, help="robocourse tree to measure (default: this repo's lib/)")
+    ap.add_argument("--baseline-lib", default=None,
+                    help="another robocourse lib/ to run side by side (interleaved repeats)")
+    ap.add_argument("--json", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     reps = args.repeats or (1 if args.quick else 5)
     n_lat = 20_000 if args.quick else 100_000
     n_cross = 5_000 if args.quick else 20_000
     period_us = 50
     have_zenoh = zenoh_available()
+    secs = 2.0 if args.quick else 5.0
+    if args.json:       # one repeat for a parent run (--baseline-lib)
+        rows = run_rows(n_lat, n_cross, period_us, None)
+        cpu = cpu_runs(secs, 1)[0][0]
+        print(json.dumps({"rows": rows, "cpu": cpu, "copy": copy_costs(2000)}))
+        return
     if not have_zenoh:
         print("NOTE: eclipse-zenoh is not installed, so the zenoh baseline is skipped. Install it with:\n"
               "    pip install -r benchmarks/requirements.txt   (eclipse-zenoh==1.10.2)\n")
-
-    rows = {}
-
-    def add(name, p50, p99, rate=None):
-        rows.setdefault(name, {"p50": [], "p99": [], "rate": []})
-        rows[name]["p50"].append(p50)
-        rows[name]["p99"].append(p99)
-        if rate is not None:
-            rows[name]["rate"].append(rate)
+    import subprocess
 
     session = zenoh_session() if have_zenoh else None
+    new, old, cpu_new, cpu_old = {}, {}, [], []
     for r in range(reps):
-        p50, p99, rate = bus_same_executor(n_lat)
-        add("bus: same executor (timer -> sub)", p50, p99, rate)
-        rows.setdefault("bus: KEEP_ALL burst delivery", {"p50": [], "p99": [], "rate": []})
-        rows["bus: KEEP_ALL burst delivery"]["rate"].append(bus_burst_throughput(n_lat * 2))
-        add(f"bus: cross-thread publisher ({period_us} us pacing)", *bus_cross_thread(n_cross, period_us))
-        add(f"queue.Queue thread hand-off ({period_us} us pacing)", *queue_handoff(n_cross, period_us))
-        add("queue.Queue put+get, one thread", *queue_same_thread(n_lat))
-        if session is not None:
-            paced_p, flat_p, zrate = zenoh_rows(session, n_cross, period_us)
-            add(f"zenoh same session put -> callback ({period_us} us pacing)", *paced_p)
-            add("zenoh same session put -> callback (flat out)", *flat_p, zrate)
+        if args.baseline_lib:
+            cmd = [sys.executable, os.path.abspath(__file__), "--lib", args.baseline_lib, "--json"]
+            if args.quick:
+                cmd.append("--quick")
+            res = json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
+            for k, v in res["rows"].items():
+                old.setdefault(k, []).append(v)
+            cpu_old.append(res["cpu"])
+        for k, v in run_rows(n_lat, n_cross, period_us, session).items():
+            new.setdefault(k, []).append(v)
+        cpu_new.append(cpu_runs(secs, 1)[0])
         print(f"repeat {r + 1}/{reps} done", file=sys.stderr)
     if session is not None:
         session.close()
 
-    base = rows["bus: same executor (timer -> sub)"]
-    b50, b99 = statistics.median(base["p50"]), statistics.median(base["p99"])
-    brate = statistics.median(base["rate"])
+    def summary(rows):
+        return {k: tuple(med([x[i] for x in v]) for i in range(4)) for k, v in rows.items()}
+
+    sn, so = summary(new), summary(old)
+    base = "bus: same executor (timer -> sub), Int64"
+    b50, b99, brate, _ = sn[base]
     print(f"\nrobocourse.bus latency benchmark: {reps} repeats (medians), Python "
-          f"{sys.version.split()[0]}, {os.cpu_count()} CPUs\n")
-    hdr = f"{'path':58s} {'p50 us':>8s} {'p99 us':>8s} {'msgs/s':>10s} {'p50/bus':>8s} {'p99/bus':>8s} {'rate/bus':>9s}"
+          f"{sys.version.split()[0]}, {os.cpu_count()} CPUs, library {LIB}")
+    print("The machine is shared and noisy: compare ratios from this one run, not absolute figures.\n")
+    hdr = (f"{'path':62s} {'p50 us':>8s} {'p99 us':>8s} {'msgs/s':>10s} {'CPU us/msg':>10s} "
+           f"{'p50/bus':>8s} {'p99/bus':>8s}")
     print(hdr)
     print("-" * len(hdr))
-    for name, v in rows.items():
-        p50 = statistics.median(v["p50"]) if v["p50"] else float("nan")
-        p99 = statistics.median(v["p99"]) if v["p99"] else float("nan")
-        rate = statistics.median(v["rate"]) if v["rate"] else float("nan")
-        print(f"{name:58s} {fmt(p50, '{:8.2f}'):>8s} {fmt(p99, '{:8.2f}'):>8s} "
-              f"{fmt(rate, '{:10.0f}'):>10s} {fmt(p50 / b50, '{:8.2f}'):>8s} "
-              f"{fmt(p99 / b99, '{:8.2f}'):>8s} {fmt(rate / brate, '{:9.2f}'):>9s}")
-    secs = 2.0 if args.quick else 5.0
-    cpu = [five_node_graph_cpu(secs) for _ in range(1 if args.quick else 3)]
-    pcts = [c[0] for c in cpu]
-    print(f"\n1 kHz 5-node graph on the wall clock ({secs:.0f} s x {len(cpu)}): CPU "
+    for name, (p50, p99, rate, cpu) in sn.items():
+        print(f"{name:62s} {fmt(p50, '{:8.2f}'):>8s} {fmt(p99, '{:8.2f}'):>8s} "
+              f"{fmt(rate, '{:10.0f}'):>10s} {fmt(cpu, '{:10.2f}'):>10s} "
+              f"{fmt(p50 / b50, '{:8.2f}'):>8s} {fmt(p99 / b99, '{:8.2f}'):>8s}")
+    if so:
+        print(f"\nOld vs new, same run (baseline library {os.path.abspath(args.baseline_lib)}):\n")
+        hdr = (f"{'path':62s} {'old p50':>8s} {'new p50':>8s} {'ratio':>6s} {'old p99':>8s} "
+               f"{'new p99':>8s} {'ratio':>6s} {'old msg/s':>10s} {'new msg/s':>10s} "
+               f"{'old CPU us':>10s} {'new CPU us':>10s} {'ratio':>6s}")
+        print(hdr)
+        print("-" * len(hdr))
+        for name, (p50, p99, rate, cpu) in sn.items():
+            if name not in so or name.startswith(("queue", "zenoh")):
+                continue
+            o50, o99, orate, ocpu = so[name]
+            print(f"{name:62s} {fmt(o50, '{:8.2f}'):>8s} {fmt(p50, '{:8.2f}'):>8s} "
+                  f"{fmt(p50 / o50, '{:6.2f}'):>6s} {fmt(o99, '{:8.2f}'):>8s} {fmt(p99, '{:8.2f}'):>8s} "
+                  f"{fmt(p99 / o99, '{:6.2f}'):>6s} {fmt(orate, '{:10.0f}'):>10s} {fmt(rate, '{:10.0f}'):>10s} "
+                  f"{fmt(ocpu, '{:10.2f}'):>10s} {fmt(cpu, '{:10.2f}'):>10s} {fmt(cpu / ocpu, '{:6.2f}'):>6s}")
+    costs = copy_costs(20_000 if not args.quick else 2000)
+    print("\nPer-message cost of value semantics (best of 3, us): the generated copy vs rclpy's CDR "
+          "serialize + deserialize (mcap_ros2 codec)\n")
+    print(f"{'message':40s} {'CDR bytes':>10s} {'copy us':>9s} {'CDR us':>9s} {'CDR/copy':>9s}")
+    for name, row in costs.items():
+        cp = row.get("copy_us", float("nan"))
+        print(f"{name:40s} {row['cdr_bytes']:10d} {fmt(cp, '{:9.2f}'):>9s} {row['cdr_us']:9.2f} "
+              f"{fmt(row['cdr_us'] / cp, '{:9.1f}'):>9s}")
+    pcts = [c[0] for c in cpu_new]
+    print(f"\n1 kHz 5-node graph on the wall clock ({secs:.0f} s x {len(cpu_new)}): CPU "
           f"{statistics.median(pcts):.1f}% of one core (median; runs: "
-          f"{', '.join(f'{p:.1f}%' for p in pcts)}); ticks {cpu[-1][1]}, commands applied "
-          f"{cpu[-1][2]}, estimates logged {cpu[-1][3]}")
-    print("\nGoals (issue 4): same-executor p50 <= 10 us, p99 <= 50 us, >= 200k msgs/s, lower p50/p99 "
-          "than both baselines; 1 kHz 5-node graph < 10% of one core.")
-    print(f"  same-executor p50 {b50:.2f} us, p99 {b99:.2f} us, {brate:,.0f} msgs/s")
+          f"{', '.join(f'{p:.1f}%' for p in pcts)}); ticks {cpu_new[-1][1]}, commands applied "
+          f"{cpu_new[-1][2]}, estimates logged {cpu_new[-1][3]}"
+          + (f"; baseline library {statistics.median(cpu_old):.1f}%" if cpu_old else ""))
+    js = sn.get("bus: same executor, JointState 7 joints (300 B CDR)", (float("nan"),) * 4)
+    print("\nGoals (issue 9): small-message same-executor p50 <= 5 us, p99 <= 15 us, ahead of zenoh "
+          "and queue.Queue; JointState(7) p50 <= 15 us; 1 kHz 5-node graph < 10% of one core.")
+    print(f"  same-executor Int64 p50 {b50:.2f} us, p99 {b99:.2f} us, {brate:,.0f} msgs/s; "
+          f"JointState(7) p50 {js[0]:.2f} us; 5-node graph {statistics.median(pcts):.1f}%")
 
 
 if __name__ == "__main__":

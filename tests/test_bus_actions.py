@@ -97,7 +97,7 @@ def test_goal_succeeds_with_feedback_and_status_topic():
     h = send(ex, client, 5, lambda m: fb.append(list(m.feedback.sequence)))
     assert h.accepted
     r = result(ex, h)
-    assert r.status == S.STATUS_SUCCEEDED and r.result.sequence == [0, 1, 1, 2, 3, 5]
+    assert r.status == S.STATUS_SUCCEEDED and r.result.sequence.tolist() == [0, 1, 1, 2, 3, 5]
     assert fb == [[0, 1, 1], [0, 1, 1, 2], [0, 1, 1, 2, 3], [0, 1, 1, 2, 3, 5]]
     assert h.status == S.STATUS_SUCCEEDED
     assert statuses[0] == [S.STATUS_ACCEPTED] and [S.STATUS_EXECUTING] in statuses
@@ -159,7 +159,7 @@ def test_execute_returning_without_terminal_state_aborts():
 
     ctx, s, c, server, client, ex = setup(execute)
     r = result(ex, send(ex, client, 3))
-    assert r.status == S.STATUS_ABORTED and r.result.sequence == [1]
+    assert r.status == S.STATUS_ABORTED and r.result.sequence.tolist() == [1]
     assert any("Goal state not set, assuming aborted" in rec.msg for rec in ctx.log_records)
 
 
@@ -175,7 +175,7 @@ def test_execute_raising_aborts_and_server_survives():
 
     ctx, s, c, server, client, ex = setup(execute)
     r = result(ex, send(ex, client, 13))
-    assert r.status == S.STATUS_ABORTED and r.result.sequence == []
+    assert r.status == S.STATUS_ABORTED and r.result.sequence.tolist() == []
     assert any("unlucky" in rec.msg for rec in ctx.log_records)
     r2 = result(ex, send(ex, client, 2))
     assert r2.status == S.STATUS_SUCCEEDED and calls == [13, 2]
@@ -201,7 +201,7 @@ def test_result_timeout_forgets_results():
     assert result(ex, h).status == S.STATUS_SUCCEEDED
     ex.spin_for(2.0)
     r = result(ex, h)
-    assert r.status == S.STATUS_UNKNOWN and r.result.sequence == []
+    assert r.status == S.STATUS_UNKNOWN and r.result.sequence.tolist() == []
     assert server._goals == {}
 
 
@@ -224,7 +224,7 @@ def test_action_cli_send_goal_prints_ros_text(capsys):
     ctx, s, c, server, client, ex = setup()
     status, res, fbs = ros2.action_send_goal(ctx, "/fibonacci", Fibonacci, {"order": 3}, ex)
     out = capsys.readouterr().out
-    assert status == S.STATUS_SUCCEEDED and res.sequence == [0, 1, 1, 2] and len(fbs) == 2
+    assert status == S.STATUS_SUCCEEDED and res.sequence.tolist() == [0, 1, 1, 2] and len(fbs) == 2
     for line in ("Waiting for an action server to become available...", "Sending goal:",
                  "Goal accepted with ID: ", "Feedback:", "Result:",
                  "Goal finished with status: SUCCEEDED"):

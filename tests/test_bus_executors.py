@@ -269,3 +269,83 @@ def test_rclpy_style_globals_init_spin_once_spin_until_future_complete_shutdown(
     assert not rclpy.ok()
     with pytest.raises(RuntimeError, match="init"):
         rclpy.create_node("after")
+
+
+def test_multi_threaded_spin_until_future_complete_returns_while_another_callback_runs():
+    # rclpy returns as soon as the future is done; the old executor waited for every running
+    # callback. The slow callback blocks until the test releases it, after spin returned.
+    ctx = Context()
+    ctx.log_to_stderr = False
+    node = ctx.create_node("n")
+    release, slow_started, slow_done = threading.Event(), threading.Event(), threading.Event()
+
+    def slow():
+        slow_started.set()
+        release.wait(timeout=10.0)
+        slow_done.set()
+
+    group = ReentrantCallbackGroup()
+    ex = MultiThreadedExecutor(num_threads=2, context=ctx)
+    ex.add_node(node)
+    ex.create_task(slow)
+    future = Future()
+
+    def finish():
+        slow_started.wait(timeout=10.0)
+        future.set_result(42)
+
+    t = node.create_timer(0.001, finish, callback_group=group)
+    ex.spin_until_future_complete(future, timeout_sec=10.0)
+    returned_while_running = not slow_done.is_set()
+    t.cancel()
+    release.set()
+    assert future.result() == 42
+    assert returned_while_running
+    assert slow_done.wait(timeout=10.0)        # the slow callback still finishes on its thread
+
+
+def test_multi_threaded_executor_spins_again_after_an_early_return():
+    ctx = Context()
+    ctx.log_to_stderr = False
+    node = ctx.create_node("n")
+    pub = node.create_publisher(Int64, "t", 10)
+    got = []
+    node.create_subscription(Int64, "t", lambda m: got.append(m.data), 10)
+    ex = MultiThreadedExecutor(num_threads=2, context=ctx)
+    ex.add_node(node)
+    for k in range(3):
+        f = Future()
+        ex.create_task(lambda f=f, k=k: (pub.publish(Int64(data=k)), f.set_result(k)))
+        ex.spin_until_future_complete(f, timeout_sec=5.0)
+        assert f.result() == k
+    ex.spin_for(0.05)
+    assert got == [0, 1, 2]
+
+
+@pytest.mark.parametrize("call, exc, match", [
+    (lambda ex: ex.spin_for("1"), TypeError, r"spin_for\(seconds\): seconds='1' must be a finite number of seconds"),
+    (lambda ex: ex.spin_for(-1.0), ValueError, "seconds=-1.0 must be a finite number of seconds >= 0"),
+    (lambda ex: ex.spin_for(float("nan")), ValueError, "seconds=nan"),
+    (lambda ex: ex.spin_once("0.1"), TypeError, "timeout_sec='0.1'"),
+    (lambda ex: ex.spin_until_future_complete(3), TypeError, "needs a Future"),
+    (lambda ex: ex.spin_until_future_complete(Future(), timeout_sec="1"), TypeError, "timeout_sec='1'"),
+    (lambda ex: ex.spin_some(0), ValueError, "max_callbacks=0 must be an int >= 1"),
+    (lambda ex: ex.spin_until("soon"), TypeError, "t_ns='soon'"),
+    (lambda ex: ex.add_node("talker"), TypeError, "add_node needs a Node"),
+    (lambda ex: MultiThreadedExecutor(num_threads=0), ValueError, "num_threads=0 must be an int >= 1"),
+])
+def test_executor_entry_points_refuse_bad_arguments_before_spinning(call, exc, match):
+    ex = SingleThreadedExecutor(context=Context(use_sim_time=True))
+    with pytest.raises(exc, match=match):
+        call(ex)
+
+
+def test_negative_timeout_blocks_like_none_as_in_rclpy():
+    ctx = Context(use_sim_time=True)
+    node = ctx.create_node("n")
+    got = []
+    node.create_timer(0.5, lambda: got.append(1))
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    ex.spin_once(timeout_sec=-1)          # rclpy: negative = wait until work
+    assert got == [1]

@@ -13,6 +13,7 @@ from robocourse.bus import (
     SingleThreadedExecutor,
 )
 from robocourse.bus import introspection as ros2
+from robocourse.msgs.example_interfaces import AddTwoInts as AddTwoIntsSrv
 from robocourse.msgs.geometry_msgs import Twist
 from robocourse.msgs.std_msgs import Float64, Int64
 
@@ -170,3 +171,26 @@ def test_raw_subscription_gets_cdr_bytes():
     ex.spin_for(0.001)
     # CDR: little-endian encapsulation header 00 01 00 00, then the float64
     assert got == [bytes.fromhex("00010000") + struct.pack("<d", 1.0)]
+
+
+@pytest.mark.parametrize("call, exc, match", [
+    (lambda n: n.create_publisher(Int64, 5, 10), TypeError, "create_publisher: topic=5 must be a non-empty str"),
+    (lambda n: n.create_subscription(Int64, "t", "print", 10), TypeError,
+     "create_subscription: callback='print' must be callable"),
+    (lambda n: n.create_timer("0.1", lambda: None), TypeError,
+     r"create_timer\(timer_period_sec\): timer_period_sec='0.1' must be a finite number of seconds"),
+    (lambda n: n.create_timer(-0.1, lambda: None), ValueError, "timer_period_sec=-0.1"),
+    (lambda n: n.create_publisher(Int64, "t", "10"), TypeError, "qos_profile must be a QoSProfile or an int depth"),
+    (lambda n: n.create_client(AddTwoIntsSrv, None), TypeError, "srv_name=None must be a non-empty str"),
+])
+def test_node_entry_points_refuse_bad_arguments(call, exc, match):
+    node = Context().create_node("n")
+    with pytest.raises(exc, match=match):
+        call(node)
+
+
+def test_context_refuses_bad_arguments():
+    with pytest.raises(TypeError, match="use_sim_time='yes' must be True or False"):
+        Context(use_sim_time="yes")
+    with pytest.raises(ValueError, match="start_time=-1"):
+        Context(use_sim_time=True, start_time=-1)

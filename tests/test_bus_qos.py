@@ -307,3 +307,23 @@ def test_automatic_liveliness_changes_when_a_publisher_goes_away():
     a.destroy_publisher(pub)
     ex.spin_for(0.01)
     assert [(e.alive_count, e.alive_count_change) for e in ev] == [(1, 1), (0, -1)]
+
+
+@pytest.mark.parametrize("kwargs, exc, match", [
+    (dict(depth=10, reliability="reliable"), TypeError,
+     r"reliability='reliable' is not a ReliabilityPolicy \(write ReliabilityPolicy.RELIABLE"),
+    (dict(depth=10, durability="transient_local"), TypeError, "DurabilityPolicy.TRANSIENT_LOCAL"),
+    (dict(depth=10, history=7), TypeError, "history=7 is not a HistoryPolicy"),
+    (dict(depth="10"), InvalidQoSProfileException, r"depth='10' must be an int >= 0"),
+    (dict(depth=10, deadline="1"), InvalidQoSProfileException, r"deadline='1' must be seconds"),
+    (dict(depth=10, lifespan=-2.0), InvalidQoSProfileException, r"lifespan=-2.0 must be >= 0 s"),
+])
+def test_qos_profile_refuses_bad_arguments_with_value_rule_and_fix(kwargs, exc, match):
+    with pytest.raises(exc, match=match):
+        QoSProfile(**kwargs)
+
+
+def test_qos_profile_accepts_policy_ints_like_rclpy():
+    q = QoSProfile(depth=3, reliability=2, durability=1)
+    assert q.reliability == ReliabilityPolicy.BEST_EFFORT
+    assert q.durability == DurabilityPolicy.TRANSIENT_LOCAL

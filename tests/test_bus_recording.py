@@ -98,3 +98,17 @@ def test_read_back_as_numpy_and_replay(tmp_path):
     assert player.done and player.published == 50
     assert [x for _, x in got] == list(d["linear.x"])
     assert [t for t, _ in got] == [k * 10_000_000 for k in range(50)]
+
+
+def test_record_and_replay_refuse_bad_arguments(tmp_path):
+    import pytest
+
+    ctx = Context(use_sim_time=True)
+    with pytest.raises(TypeError, match="record needs a Context or a Node"):
+        record("ctx", tmp_path / "r.mcap")
+    with pytest.raises(TypeError, match=r"topics='/x' must be a list of topic names"):
+        record(ctx, tmp_path / "r.mcap", "/x")
+    with pytest.raises(TypeError, match="path=3 must be a file path"):
+        record(ctx, 3)
+    with pytest.raises(ValueError, match="rate=0 must be a number > 0"):
+        replay(tmp_path / "missing.mcap", ctx, rate=0)

@@ -1,5 +1,7 @@
 """robocourse.msgs: definitions, defaults, conversions, custom types, MCAP compatibility."""
 
+import array
+
 import numpy as np
 import pytest
 from mcap_ros2._dynamic import generate_dynamic, serialize_dynamic
@@ -16,6 +18,7 @@ from robocourse.msgs import (
     to_dict,
     to_numpy,
 )
+from robocourse.msgs._core import wire_view
 from robocourse.msgs.action_msgs import CancelGoal, GoalStatus
 from robocourse.msgs.builtin_interfaces import Time
 from robocourse.msgs.diagnostic_msgs import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -51,13 +54,15 @@ def test_ros_defaults():
     assert Quaternion() == Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
     assert Twist().linear == Vector3(0.0, 0.0, 0.0)
     o = Odometry()
-    assert len(o.pose.covariance) == 36 and o.pose.covariance == [0.0] * 36
+    # rclpy: a fixed numeric array is a numpy array of its dtype, a sequence an array.array
+    assert isinstance(o.pose.covariance, np.ndarray) and o.pose.covariance.dtype == np.float64
+    assert o.pose.covariance.shape == (36,) and not o.pose.covariance.any()
     assert o.header.frame_id == "" and o.header.stamp == Time(sec=0, nanosec=0)
-    assert JointState().name == [] and JointState().position == []
+    assert JointState().name == [] and JointState().position == array.array("d")
     # mutable defaults are not shared between instances
     a, b = JointState(), JointState()
     a.position.append(1.0)
-    assert b.position == []
+    assert b.position.tolist() == []
 
 
 def test_constants_are_class_attributes():
@@ -73,7 +78,7 @@ def test_definition_text_is_carried():
     assert "Vector3  linear" in Twist._definition
     assert Twist._type == "geometry_msgs/msg/Twist"
     assert "int64 a" in AddTwoInts._definition and AddTwoInts.Response().sum == 0
-    assert Fibonacci.Goal().order == 0 and Fibonacci.Result().sequence == []
+    assert Fibonacci.Goal().order == 0 and Fibonacci.Result().sequence == array.array("i")
 
 
 def test_full_definition_appends_dependencies_once():
@@ -96,7 +101,7 @@ def test_every_message_round_trips_through_the_ros2_cdr_codec(name):
     enc = serialize_dynamic(schema, full_definition(t))[schema]
     dec = generate_dynamic(schema, full_definition(t))[schema]
     m = t()
-    back = from_dict(t, dec(enc(m)))
+    back = from_dict(t, dec(enc(wire_view(m))))
     assert back == m
 
 
@@ -193,16 +198,149 @@ def test_redefining_a_type_differently_is_an_error():
 
 
 def test_check_message_names_the_bad_field():
-    t = Twist()
-    t.linear.x = "fast"
-    with pytest.raises(TypeError, match=r"Twist\.linear\.x"):
-        check_message(t)
+    # assignments are checked when they happen; check_message catches in-place changes
+    js = JointState(name=["a"])
+    js.name.append(3)
+    with pytest.raises(TypeError, match=r"JointState\.name: The 'name' field must be a set or sequence"):
+        check_message(js)
     p = Pose()
     check_message(p)
     o = Odometry()
-    o.pose.covariance = [0.0] * 35
-    with pytest.raises(ValueError, match="exactly 36"):
-        check_message(o)
-    gs = GoalStatus(status=200)
-    with pytest.raises(ValueError, match="out of range for int8"):
-        check_message(gs)
+    with pytest.raises(ValueError, match="must be a set or sequence with length 36"):
+        o.pose.covariance = [0.0] * 35
+    with pytest.raises(ValueError, match=r"The 'status' field must be an integer in \[-128, 127\]"):
+        GoalStatus(status=200)
+
+
+# ------------------------------------------------------------------ rclpy-style field checks
+# Reference: rosidl_generator_py's setters (e.g. "The 'data' field must be of type 'float'");
+# robocourse adds the field path and a fix, and accepts an int in a float field (documented).
+
+from robocourse.msgs import MessageFieldError, MessageFieldRangeError  # noqa: E402
+from robocourse.msgs.std_msgs import Bool, Float32, Float64, Int32, Int64, String  # noqa: E402
+
+
+@pytest.mark.parametrize("build, exc, text", [
+    (lambda: Float64(data="x"), MessageFieldError, "The 'data' field must be of type 'float'"),
+    (lambda: Int64(data=1.5), MessageFieldError, "The 'data' field must be of type 'int'"),
+    (lambda: Int64(data=2**70), MessageFieldRangeError,
+     "The 'data' field must be an integer in [-9223372036854775808, 9223372036854775807]"),
+    (lambda: Int32(data=-(2**31) - 1), MessageFieldRangeError,
+     "The 'data' field must be an integer in [-2147483648, 2147483647]"),
+    (lambda: Twist(linear=5), MessageFieldError,
+     "The 'linear' field must be a sub message of type 'Vector3'"),
+    (lambda: String(data=3), MessageFieldError, "The 'data' field must be of type 'str'"),
+    (lambda: Bool(data=1), MessageFieldError, "The 'data' field must be of type 'bool'"),
+    (lambda: Float32(data=1e39), MessageFieldRangeError,
+     "The 'data' field must be a float in [-3.402823466e+38, 3.402823466e+38]"),
+    (lambda: JointState(position=["a"]), MessageFieldError,
+     "The 'position' field must be a set or sequence and each value of type 'float'"),
+    (lambda: JointState(name="abc"), MessageFieldError,
+     "The 'name' field must be a set or sequence and each value of type 'str'"),
+    (lambda: Odometry().pose.__setattr__("covariance", [0.0] * 35), MessageFieldRangeError,
+     "The 'covariance' field must be a set or sequence with length 36"),
+    (lambda: GoalStatus(status=200), MessageFieldRangeError,
+     "The 'status' field must be an integer in [-128, 127]"),
+])
+def test_construction_checks_fields_with_rclpys_words_path_and_fix(build, exc, text):
+    with pytest.raises(exc) as info:
+        build()
+    msg = str(info.value)
+    assert msg.startswith(text)
+    assert "Fix:" in msg
+    assert isinstance(info.value, AssertionError)   # rclpy's setters raise AssertionError
+
+
+def test_assignment_is_checked_and_names_the_type_and_field():
+    m = Float64()
+    with pytest.raises(TypeError, match=r"^The 'data' field must be of type 'float' "
+                                        r"\(std_msgs/msg/Float64\.data got 'oops' of type str\)"):
+        m.data = "oops"
+    assert m.data == 0.0
+    t = Twist()
+    with pytest.raises(TypeError, match=r"geometry_msgs/msg/Vector3\.x got 'fast'"):
+        t.linear.x = "fast"
+    with pytest.raises(AttributeError, match="has no field 'dat'"):
+        m.dat = 1.0
+
+
+def test_float_fields_accept_int_and_store_float_unlike_rclpy():
+    # documented difference: rclpy raises for Float64(data=1); here it is stored as 1.0
+    m = Float64(data=1)
+    assert m.data == 1.0 and type(m.data) is float
+    v = Vector3(x=np.float32(0.5), y=np.int64(2))
+    assert (v.x, v.y) == (0.5, 2.0) and type(v.y) is float
+    with pytest.raises(TypeError):
+        Float64(data=True)              # bool is not a number here, as in rclpy
+
+
+def test_integer_fields_check_each_widths_range():
+    for name, lo, hi in [("int8", -128, 127), ("uint8", 0, 255), ("int16", -32768, 32767),
+                         ("uint16", 0, 65535), ("uint32", 0, 2**32 - 1), ("uint64", 0, 2**64 - 1)]:
+        T = msgs.make_message(f"range_test/msg/{name.capitalize()}Holder", f"{name} v")
+        assert T(v=lo).v == lo and T(v=hi).v == hi
+        for bad in (lo - 1, hi + 1):
+            with pytest.raises(MessageFieldRangeError, match=rf"\[{lo}, {hi}\]"):
+                T(v=bad)
+    assert Int64(data=np.int64(7)).data == 7
+
+
+def test_sequences_are_array_array_and_fixed_arrays_numpy_as_in_rclpy():
+    js = JointState(position=[1.0, 2.0], velocity=np.array([0.5, 0.25]))
+    assert isinstance(js.position, array.array) and js.position.typecode == "d"
+    assert js.velocity.tolist() == [0.5, 0.25] and js.velocity.typecode == "d"
+    assert isinstance(Odometry().pose.covariance, np.ndarray)
+    with pytest.raises(TypeError):
+        js.position.append("x")         # array.array itself refuses a str
+    seq = Fibonacci.Feedback(sequence=[1, 2, 3]).sequence
+    assert seq.typecode == "i" and seq.tolist() == [1, 2, 3]
+    with pytest.raises(MessageFieldRangeError):
+        Fibonacci.Feedback(sequence=[2**40])
+
+
+def test_bounded_strings_and_arrays_are_checked():
+    T = msgs.make_message("bound_test/msg/Bounded", "string<=3 s\nfloat64[<=2] a\nint32[3] f")
+    assert T(s="abc", a=[1.0, 2.0], f=[1, 2, 3]).f.dtype == np.int32
+    with pytest.raises(MessageFieldRangeError, match="must be string with length not greater than 3"):
+        T(s="abcd")
+    with pytest.raises(MessageFieldRangeError, match="with length <= 2"):
+        T(a=[1.0, 2.0, 3.0])
+    with pytest.raises(MessageFieldRangeError, match="with length 3"):
+        T(f=[1, 2])
+    m = T(a=[1.0])
+    m.a.extend([2.0, 3.0])              # grown in place past its bound: caught when copied
+    with pytest.raises(MessageFieldRangeError, match="with length <= 2"):
+        m._copy()
+
+
+def test_generated_copy_is_deep_and_equal():
+    js = JointState(name=["a"], position=[1.0])
+    js.header.frame_id = "base"
+    c = js._copy()
+    assert c == js and c is not js
+    assert c.position is not js.position and c.header is not js.header
+    o = Odometry()
+    oc = o._copy()
+    assert oc == o and oc.pose.covariance is not o.pose.covariance
+    oc.pose.covariance[0] = 1.0
+    assert o.pose.covariance[0] == 0.0 and oc != o
+
+
+def test_to_numpy_and_to_dict_keep_working_with_rclpy_arrays():
+    msgs_ = [JointState(name=["a", "b"], position=[float(k), 2.0 * k]) for k in range(3)]
+    arr = to_numpy(msgs_)
+    assert arr["position"].shape == (3, 2) and arr["position"][2].tolist() == [2.0, 4.0]
+    d = to_dict(Odometry())
+    assert d["pose"]["covariance"] == [0.0] * 36 and type(d["pose"]["covariance"][0]) is float
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda: to_dict(3), "to_dict needs a message object"),
+    (lambda: from_dict(dict, {}), "from_dict needs a message type"),
+    (lambda: check_message("x"), "check_message needs a message object"),
+    (lambda: to_numpy(Float64()), "to_numpy needs a list of messages"),
+    (lambda: to_numpy([], msg_type=int), "to_numpy needs a message type"),
+])
+def test_msgs_entry_points_refuse_bad_arguments(call, match):
+    with pytest.raises(TypeError, match=match):
+        call()

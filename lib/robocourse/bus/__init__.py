@@ -17,7 +17,11 @@ Quick start (a notebook cell)::
 Modules (one idea each): ``names``, ``qos``, ``clock``, ``node``, ``publisher``,
 ``subscription``, ``timer``, ``service``, ``action``, ``executors``, ``callback_groups``,
 ``parameters``, ``context``, ``introspection`` (the ros2 CLI as calls), ``graph_view`` (the
-rqt_graph-like picture), ``recording`` (MCAP). rclpy-style globals: ``init``, ``shutdown``,
+rqt_graph-like picture), ``recording`` (MCAP), ``deadline`` (the deadline QoS from the last
+sample per pair), ``transport`` (``ctx.set_link``: seeded loss and delay, what RELIABLE buys).
+
+Messages are values, as in ROS 2: each subscription gets its own copy of the message as it was
+at ``publish`` (the same for services, actions, recording and replay). rclpy-style globals: ``init``, ``shutdown``,
 ``ok``, ``spin``, ``spin_once``, ``spin_until_future_complete``, ``create_node``.
 """
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import threading
 import weakref
 
+from robocourse.bus import _args
 from robocourse.bus.clock import S_TO_NS, SimTime
 from robocourse.bus.qos import (
     DurabilityPolicy,
@@ -25,6 +26,7 @@ from robocourse.bus.qos import (
     QoSSubscriptionMatchedInfo,
     qos_check_compatible,
 )
+from robocourse.bus.transport import Link, LinkDelivery
 
 
 class Incompatibility:
@@ -66,6 +68,9 @@ class Context:
     """A self-contained ROS graph. ``ctx.create_node("talker")`` makes a node on it."""
 
     def __init__(self, *, use_sim_time: bool = False, start_time: float = 0.0):
+        if not isinstance(use_sim_time, bool):
+            raise TypeError(f"Context: use_sim_time={use_sim_time!r} must be True or False")
+        _args.seconds(start_time, "Context(start_time)", name="start_time")
         self.use_sim_time = bool(use_sim_time)
         self.sim = SimTime(int(round(start_time * S_TO_NS))) if use_sim_time else None
         self._ok = True
@@ -77,6 +82,7 @@ class Context:
         self.log_to_stderr = True
         self.callback_errors = []
         self.incompatibilities: list[Incompatibility] = []
+        self.links: list[Link] = []
         self._executors = weakref.WeakSet()
         self._graph_listeners = []
         self._on_shutdown = []
@@ -168,8 +174,10 @@ class Context:
             self._incompatible(pub, sub, res.policy)
             return
         pub._subs.append(sub)
-        pub._deliver = tuple(s._deliver for s in pub._subs)
         sub._pubs.append(pub)
+        if sub._deadline is not None:
+            sub._deadline.start(pub)
+        self._rewire(pub)
         pc, sc = pub.counts, sub.counts
         pc.matched_total += 1
         pc.matched_current += 1
@@ -183,8 +191,68 @@ class Context:
             _emit(sub, "liveliness", QoSLivelinessChangedInfo(alive, len(sub._pubs) - alive, 1, 0))
         if pub._history is not None and sub.qos_profile.durability in (
                 DurabilityPolicy.TRANSIENT_LOCAL, DurabilityPolicy.BEST_AVAILABLE):
-            for msg in list(pub._history):
-                sub._deliver(msg)
+            pub._replay_history(pub._pairs[sub])
+
+    def _rewire(self, pub) -> None:
+        """Rebuild ``pub._deliver``: one delivery per matched subscription, through the
+        subscription's deadline watch and the modelled link of the pair when there is one."""
+        old_links, links, pairs = pub._links, {}, {}
+        for sub in pub._subs:
+            deliver = sub._deliver
+            if sub._deadline is not None:
+                deliver = sub._deadline.wrap(pub, deliver)
+            link = next((k for k in reversed(self.links) if k.applies(pub, sub)), None)
+            if link is not None:
+                ld = old_links.pop(sub, None)
+                if ld is not None and ld.link is link:
+                    ld.inner = deliver
+                else:
+                    if ld is not None:
+                        ld.close()
+                    ld = LinkDelivery(pub, sub, link, deliver)
+                links[sub] = ld
+                deliver = ld
+            pairs[sub] = deliver
+        for ld in old_links.values():
+            ld.close()
+        pub._links = links
+        pub._pairs = pairs
+        pub._deliver = tuple(pairs.values())
+
+    # ----------------------------------------------------------------- modelled links
+    def set_link(self, *, topic: str | None = None, publisher_node: str | None = None,
+                 subscription_node: str | None = None, loss: float = 0.0, delay: float = 0.0,
+                 jitter: float = 0.0, retransmit_delay: float | None = None,
+                 seed: int = 0) -> Link:
+        """Model a lossy/slow network on a topic or between two nodes (seeded).
+
+        ``ctx.set_link(topic="/chatter", loss=0.2, delay=0.005, seed=1)``: BEST_EFFORT pairs
+        lose 20 % of samples (``message_lost`` events), RELIABLE pairs resend them after
+        ``retransmit_delay`` (default 2 x delay, at least 1 ms) and deliver in order. Names
+        are fully qualified (``'/chatter'``, ``'/talker'``); ``None`` matches any. The last
+        link set that applies to a pair wins. Returns the :class:`Link` (its counters).
+        See :mod:`robocourse.bus.transport`.
+        """
+        link = Link(topic=topic, publisher_node=publisher_node,
+                    subscription_node=subscription_node, loss=loss, delay=delay, jitter=jitter,
+                    retransmit_delay=retransmit_delay, seed=seed)
+        with self._lock:
+            self.links.append(link)
+            self._rewire_all()
+        return link
+
+    def remove_link(self, link: Link) -> None:
+        """Take a modelled link away (samples still in flight on it are dropped)."""
+        if link not in self.links:
+            raise ValueError(f"{link!r} is not a link of this context (ctx.links lists them)")
+        with self._lock:
+            self.links.remove(link)
+            self._rewire_all()
+
+    def _rewire_all(self) -> None:
+        for t in self._topics.values():
+            for pub in t.pubs:
+                self._rewire(pub)
 
     def _incompatible(self, pub, sub, policy):
         pc, sc = pub.counts, sub.counts
@@ -228,9 +296,11 @@ class Context:
     def _unmatch(self, pub, sub):
         if sub in pub._subs:
             pub._subs.remove(sub)
-            pub._deliver = tuple(s._deliver for s in pub._subs)
+            self._rewire(pub)
         if pub in sub._pubs:
             sub._pubs.remove(pub)
+        if sub._deadline is not None:
+            sub._deadline.stop(pub)
         pc, sc = pub.counts, sub.counts
         pc.matched_current -= 1
         sc.matched_current -= 1

@@ -18,12 +18,14 @@ in ``executor.callback_errors``; the executor keeps spinning (rclpy re-raises ou
 
 from __future__ import annotations
 
+import math
 import threading
 import time as _time
 import traceback
 from collections import deque
 
-from robocourse.bus.task import Task
+from robocourse.bus import _args
+from robocourse.bus.task import Future, Task
 
 _tls = threading.local()
 
@@ -31,6 +33,21 @@ _tls = threading.local()
 def current_callback():
     """(executor, entity) of the callback running on this thread, or None."""
     return getattr(_tls, "current", None)
+
+
+def _check_timeout(timeout_sec, what):
+    """rclpy: None or a negative timeout blocks forever; anything else must be seconds."""
+    if isinstance(timeout_sec, (int, float)) and not isinstance(timeout_sec, bool) \
+            and timeout_sec < 0:
+        return None
+    _args.seconds(timeout_sec, f"{what}(timeout_sec)", allow_none=True)
+    return timeout_sec
+
+
+def _check_future(future):
+    if not isinstance(future, Future):
+        raise TypeError(f"spin_until_future_complete needs a Future (from client.call_async, "
+                        f"send_goal_async or executor.create_task), got {future!r:.80}")
 
 
 class CallbackError:
@@ -71,6 +88,8 @@ class Executor:
         return self._context
 
     def add_node(self, node) -> bool:
+        if not hasattr(node, "_entities") or not hasattr(node, "get_fully_qualified_name"):
+            raise TypeError(f"add_node needs a Node (ctx.create_node('name')), got {node!r:.80}")
         if self._context is None:
             self._context = node.context
         elif node.context is not self._context:
@@ -320,6 +339,7 @@ class Executor:
 
     def spin_once(self, timeout_sec: float | None = None) -> None:
         """Run at most one callback, waiting up to ``timeout_sec`` (None: until work)."""
+        timeout_sec = _check_timeout(timeout_sec, "spin_once")
         self._enter()
         try:
             item = self._wait_for_work(None if timeout_sec is None else int(timeout_sec * 1e9))
@@ -338,6 +358,7 @@ class Executor:
         simulated time does not advance. ``max_callbacks`` bounds one call (a zero-period timer
         is always due). The real-time executor of chapter 2 calls this once per loop iteration.
         """
+        _args.integer(max_callbacks, "spin_some", "max_callbacks", 1)
         self._enter()
         try:
             n = 0
@@ -363,10 +384,15 @@ class Executor:
         In simulated time all callbacks due in the window run, in deadline order, and the
         clock ends exactly ``seconds`` later; this takes as long as the callbacks, not longer.
         """
+        _args.seconds(seconds, "spin_for(seconds)", name="seconds")
         self.spin_until(self._now_base() + int(round(seconds * 1e9)))
 
     def spin_until(self, t_ns: int) -> None:
         """Spin until the executor time base reaches ``t_ns`` (sim ns or monotonic ns)."""
+        if isinstance(t_ns, bool) or not isinstance(t_ns, (int, float)) or not math.isfinite(t_ns):
+            raise TypeError(f"spin_until: t_ns={t_ns!r} must be a time in integer nanoseconds on "
+                            f"the executor's time base; to spin for a duration use "
+                            f"spin_for(seconds)")
         self._spin_loop(int(t_ns))
 
     def _spin_loop(self, until_ns):
@@ -392,6 +418,8 @@ class Executor:
 
     def spin_until_future_complete(self, future, timeout_sec: float | None = None) -> None:
         """Spin until ``future`` is done or ``timeout_sec`` (executor time) passes."""
+        _check_future(future)
+        timeout_sec = _check_timeout(timeout_sec, "spin_until_future_complete")
         end = self._arm_future(future, timeout_sec)
         self._enter()
         self._future_waiting = True
@@ -474,6 +502,8 @@ class MultiThreadedExecutor(Executor):
     """
 
     def __init__(self, num_threads: int | None = None, *, context=None):
+        if num_threads is not None:
+            _args.integer(num_threads, "MultiThreadedExecutor", "num_threads", 1)
         super().__init__(context=context)
         import os
 
@@ -481,6 +511,7 @@ class MultiThreadedExecutor(Executor):
         self._cond = threading.Condition()
         self._workers = []
         self._stop = False
+        self._session = None
 
     @property
     def num_threads(self) -> int:
@@ -536,15 +567,21 @@ class MultiThreadedExecutor(Executor):
         with self._cond:
             self._cond.notify_all()
 
-    def _worker(self, until_ns, done_flag):
-        while not self._stop:
+    def _worker(self, until_ns, done_flag, session):
+        # a worker of an earlier spin call (still finishing a callback when that call returned)
+        # leaves as soon as it sees another session, without touching the new one's state
+        while not self._stop and self._session is session:
             with self._cond:
+                if self._session is not session:
+                    return
                 if done_flag():
                     self._stop = True
                     self._cond.notify_all()
                     return
                 item = self._wait_for_work(50_000_000 if self._sim() is None else None, until_ns)
                 if item is None:
+                    if self._session is not session:
+                        return
                     if self._sim() is not None or until_ns is not None and self._now_base() >= until_ns:
                         if self._running == 0:
                             self._stop = True
@@ -569,16 +606,28 @@ class MultiThreadedExecutor(Executor):
                         g.ending_execution(ent)
                     self._cond.notify_all()
 
-    def _spin_loop(self, until_ns, done_flag=lambda: False):
+    def _spin_loop(self, until_ns, done_flag=lambda: False, return_when_done=False):
         self._enter()
         try:
-            self._stop = False
+            session = object()
+            with self._cond:
+                self._session = session
+                self._stop = False
             self._done_flag = done_flag
-            threads = [threading.Thread(target=self._worker, args=(until_ns, done_flag),
+            threads = [threading.Thread(target=self._worker, args=(until_ns, done_flag, session),
                                         name=f"robocourse-executor-{i}", daemon=True)
                        for i in range(self._num_threads)]
             for t in threads:
                 t.start()
+            if return_when_done:
+                # rclpy returns from spin_until_future_complete as soon as the future is done;
+                # callbacks still running on the pool finish on their own threads
+                with self._cond:
+                    while not done_flag() and any(t.is_alive() for t in threads):
+                        self._cond.wait(0.05)
+                    self._stop = True
+                    self._cond.notify_all()
+                return
             for t in threads:
                 t.join()
         finally:
@@ -586,6 +635,7 @@ class MultiThreadedExecutor(Executor):
             self._leave()
 
     def spin_once(self, timeout_sec: float | None = None) -> None:
+        timeout_sec = _check_timeout(timeout_sec, "spin_once")
         self._enter()
         try:
             with self._cond:
@@ -607,10 +657,14 @@ class MultiThreadedExecutor(Executor):
             self._leave()
 
     def spin_until_future_complete(self, future, timeout_sec: float | None = None) -> None:
+        """Return as soon as ``future`` is done (or ``timeout_sec`` passes), like rclpy: callbacks
+        already running on other pool threads keep running and finish on their own."""
+        _check_future(future)
+        timeout_sec = _check_timeout(timeout_sec, "spin_until_future_complete")
         end = self._arm_future(future, timeout_sec)
         self._future_waiting = True
         try:
-            self._spin_loop(end, done_flag=future.done)
+            self._spin_loop(end, done_flag=future.done, return_when_done=True)
         finally:
             self._future_waiting = False
 

@@ -17,10 +17,12 @@ list both.
 
 from __future__ import annotations
 
+from robocourse.bus import _args
 from robocourse.bus import names as _names
 from robocourse.bus.callback_groups import MutuallyExclusiveCallbackGroup
 from robocourse.bus.clock import ClockType, ROSClock
 from robocourse.bus.context import get_default_context
+from robocourse.bus.deadline import DeadlineWatch
 from robocourse.bus.logging import RcutilsLogger
 from robocourse.bus.parameters import Parameter, ParameterDescriptor, ParameterMixin
 from robocourse.bus.publisher import InvalidHandle, Publisher
@@ -29,8 +31,6 @@ from robocourse.bus.qos import (
     LivelinessPolicy,
     QoSLivelinessChangedInfo,
     QoSLivelinessLostInfo,
-    QoSOfferedDeadlineMissedInfo,
-    QoSRequestedDeadlineMissedInfo,
     qos_from_arg,
     qos_profile_services_default,
 )
@@ -186,6 +186,7 @@ class Node(ParameterMixin):
         """rclpy Node.create_publisher; ``qos_profile`` may be an int depth (KEEP_LAST)."""
         self._check_alive()
         _check_msg_type(msg_type, "create_publisher")
+        _args.topic_name(topic, "create_publisher")
         qos = qos_from_arg(qos_profile)
         name = self.resolve_topic_name(topic)
         pub = Publisher(self, msg_type, name, qos, event_callbacks,
@@ -201,8 +202,8 @@ class Node(ParameterMixin):
         """rclpy Node.create_subscription; ``callback(msg)`` runs on the node's executor."""
         self._check_alive()
         _check_msg_type(msg_type, "create_subscription")
-        if not callable(callback):
-            raise TypeError(f"subscription callback must be callable, got {callback!r}")
+        _args.topic_name(topic, "create_subscription")
+        _args.callable_(callback, "create_subscription")
         qos = qos_from_arg(qos_profile)
         name = self.resolve_topic_name(topic)
         group = callback_group or self.default_callback_group
@@ -227,25 +228,14 @@ class Node(ParameterMixin):
     def _setup_qos_timers(self, ent, is_pub):
         qos = ent.qos_profile
         if qos.deadline != INFINITE:
-            state = {"last": self._deadline_count(ent, is_pub), "total": 0}
-
-            def check_deadline():
-                if ent._destroyed:
-                    return
-                now = self._deadline_count(ent, is_pub)
-                if now == state["last"] and (is_pub or ent._pubs):
-                    state["total"] += 1
-                    ent.counts.deadline_missed += 1
-                    info = (QoSOfferedDeadlineMissedInfo if is_pub else QoSRequestedDeadlineMissedInfo)(
-                        state["total"], 1)
-                    cbs = ent.event_callbacks
-                    if cbs is not None and cbs.deadline is not None:
-                        cbs.deadline(info)
-                state["last"] = now
-
-            t = Timer(self, qos.deadline, check_deadline, ent.callback_group, self._clock, hidden=True)
-            ent._deadline_timer = t
-            self._add_entity(t, self.timers)
+            ent._deadline = DeadlineWatch(ent, is_pub)
+            if is_pub:
+                ent._slow = True
+                ent._deadline.start(None)
+            else:
+                for pub in ent._pubs:          # matched before the watch existed
+                    ent._deadline.start(pub)
+                    self._context._rewire(pub)
         if is_pub and qos.liveliness == LivelinessPolicy.MANUAL_BY_TOPIC and \
                 qos.liveliness_lease_duration != INFINITE:
             state = {"last": 0, "lost": 0}
@@ -279,22 +269,17 @@ class Node(ParameterMixin):
             ent._lease_timer = t
             self._add_entity(t, self.timers)
 
-    @staticmethod
-    def _deadline_count(ent, is_pub):
-        if is_pub:
-            return ent.publish_count
-        return sum(p.publish_count for p in ent._pubs)
-
     def destroy_publisher(self, publisher) -> bool:
         if publisher not in self.publishers:
             return False
         publisher._destroyed = True
         self.publishers.remove(publisher)
         self._context._remove_publisher(publisher)
-        for attr in ("_deadline_timer", "_lease_timer"):
-            t = getattr(publisher, attr, None)
-            if t is not None:
-                self._remove_entity(t, self.timers)
+        if publisher._deadline is not None:
+            publisher._deadline.close()
+        t = getattr(publisher, "_lease_timer", None)
+        if t is not None:
+            self._remove_entity(t, self.timers)
         return True
 
     def destroy_subscription(self, subscription) -> bool:
@@ -303,9 +288,8 @@ class Node(ParameterMixin):
         subscription._destroyed = True
         self._remove_entity(subscription, self.subscriptions)
         self._context._remove_subscription(subscription)
-        t = getattr(subscription, "_deadline_timer", None)
-        if t is not None:
-            self._remove_entity(t, self.timers)
+        if subscription._deadline is not None:
+            subscription._deadline.close()
         return True
 
     # ------------------------------------------------------------------ timers
@@ -313,8 +297,8 @@ class Node(ParameterMixin):
                      autostart: bool = True) -> Timer:
         """rclpy Node.create_timer: ``callback()`` every ``timer_period_sec`` on the node clock."""
         self._check_alive()
-        if not callable(callback):
-            raise TypeError(f"timer callback must be callable, got {callback!r}")
+        _args.seconds(timer_period_sec, "create_timer(timer_period_sec)", name="timer_period_sec")
+        _args.callable_(callback, "create_timer")
         group = callback_group or self.default_callback_group
         t = Timer(self, timer_period_sec, callback, group, clock or self._clock, autostart)
         group.add_entity(t)
@@ -346,6 +330,7 @@ class Node(ParameterMixin):
         from robocourse.bus.service import Service
 
         self._check_alive()
+        _args.topic_name(srv_name, "create_service/create_client", "srv_name")
         name = self.resolve_service_name(srv_name)
         group = callback_group or self.default_callback_group
         srv = Service(self, srv_type, name, callback, qos_profile, group)
@@ -359,6 +344,7 @@ class Node(ParameterMixin):
         from robocourse.bus.service import Client
 
         self._check_alive()
+        _args.topic_name(srv_name, "create_service/create_client", "srv_name")
         name = self.resolve_service_name(srv_name)
         group = callback_group or self.default_callback_group
         cli = Client(self, srv_type, name, qos_profile, group)

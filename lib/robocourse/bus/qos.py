@@ -5,9 +5,10 @@ rclpy counterparts: ``rclpy.qos`` (``QoSProfile``, ``HistoryPolicy``, ``Reliabil
 ``qos_check_compatible``) and ``rclpy.event_handler`` (``SubscriptionEventCallbacks``,
 ``PublisherEventCallbacks`` and the ``QoS*Info`` event payloads).
 
-In-process delivery never loses a sample, so BEST_EFFORT differs from RELIABLE only in
-matching, and the ``message_lost`` event never fires; KEEP_LAST overflow and lifespan expiry
-are counted on the subscription (``sub.counts``) instead.
+In-process delivery never loses a sample unless a link model says so: ``ctx.set_link(topic=...,
+loss=..., delay=..., seed=...)`` (see :mod:`robocourse.bus.transport`) makes BEST_EFFORT pairs
+lose samples (``message_lost`` events) while RELIABLE pairs resend them late and in order.
+KEEP_LAST overflow and lifespan expiry are counted on the subscription (``sub.counts``).
 
 Durations are given in seconds (float) or as :class:`robocourse.bus.clock.Duration`; ``None``
 or 0 means "infinite/unset" like ``Duration()`` in rclpy.
@@ -20,6 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import IntEnum
 
+from robocourse.bus import _args
 from robocourse.bus.clock import Duration
 
 INFINITE = math.inf
@@ -81,15 +83,21 @@ class InvalidQoSProfileException(ValueError):
     """A QoS profile that cannot work (e.g. KEEP_LAST with depth 0)."""
 
 
-def _seconds(value) -> float:
+def _seconds(value, name: str = "duration") -> float:
     if value is None:
         return INFINITE
     if isinstance(value, Duration):
         ns = value.nanoseconds
         return INFINITE if ns == 0 else ns * 1e-9
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value):
+        raise InvalidQoSProfileException(
+            f"QoSProfile: {name}={value!r} must be seconds (a float such as 0.1), a Duration, or "
+            f"None for infinite")
     value = float(value)
     if value < 0:
-        raise InvalidQoSProfileException(f"QoS durations must be >= 0 s, got {value}")
+        raise InvalidQoSProfileException(
+            f"QoSProfile: {name}={value!r} must be >= 0 s (0 or None mean infinite); e.g. "
+            f"{name}=0.1")
     return INFINITE if value == 0 else value
 
 
@@ -113,27 +121,36 @@ class QoSProfile:
                  durability=DurabilityPolicy.VOLATILE, lifespan=None, deadline=None,
                  liveliness=LivelinessPolicy.SYSTEM_DEFAULT, liveliness_lease_duration=None,
                  avoid_ros_namespace_conventions=False):
+        what = "QoSProfile"
+        if depth is not None and (isinstance(depth, bool) or not isinstance(depth, int) or depth < 0):
+            raise InvalidQoSProfileException(
+                f"{what}: depth={depth!r} must be an int >= 0 (how many samples KEEP_LAST keeps); "
+                f"e.g. QoSProfile(depth=10)")
         if history is None:
             if depth is None:
                 raise InvalidQoSProfileException(
                     "QoSProfile needs a history policy or a depth: QoSProfile(depth=10) for "
                     "KEEP_LAST 10, or QoSProfile(history=HistoryPolicy.KEEP_ALL)")
             history = HistoryPolicy.KEEP_LAST
-        self.history = HistoryPolicy(history)
+        self.history = _args.policy(history, HistoryPolicy, what, "history")
         if self.history == HistoryPolicy.KEEP_LAST:
-            if depth is None or int(depth) <= 0:
+            if depth is None or depth <= 0:
                 raise InvalidQoSProfileException(
                     f"KEEP_LAST history needs a depth >= 1, got depth={depth!r}; use e.g. "
                     f"QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10), or KEEP_ALL to keep "
                     f"every sample")
         self.depth = int(depth) if depth is not None else 0
-        self.reliability = ReliabilityPolicy(reliability)
-        self.durability = DurabilityPolicy(durability)
-        self.liveliness = LivelinessPolicy(liveliness)
-        self.lifespan = _seconds(lifespan)
-        self.deadline = _seconds(deadline)
-        self.liveliness_lease_duration = _seconds(liveliness_lease_duration)
-        self.avoid_ros_namespace_conventions = bool(avoid_ros_namespace_conventions)
+        self.reliability = _args.policy(reliability, ReliabilityPolicy, what, "reliability")
+        self.durability = _args.policy(durability, DurabilityPolicy, what, "durability")
+        self.liveliness = _args.policy(liveliness, LivelinessPolicy, what, "liveliness")
+        self.lifespan = _seconds(lifespan, "lifespan")
+        self.deadline = _seconds(deadline, "deadline")
+        self.liveliness_lease_duration = _seconds(liveliness_lease_duration,
+                                                  "liveliness_lease_duration")
+        if not isinstance(avoid_ros_namespace_conventions, bool):
+            raise TypeError(f"{what}: avoid_ros_namespace_conventions="
+                            f"{avoid_ros_namespace_conventions!r} must be True or False")
+        self.avoid_ros_namespace_conventions = avoid_ros_namespace_conventions
 
     def copy(self, **changes) -> QoSProfile:
         kw = {k: getattr(self, k) for k in self.__slots__}

@@ -19,11 +19,14 @@ from __future__ import annotations
 
 import functools
 import itertools
+import os
 
 import numpy as np
 
+from robocourse.bus import _args
 from robocourse.bus.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from robocourse.msgs import definition_name, from_dict, full_definition, get_message_type, to_numpy
+from robocourse.msgs._core import wire_view
 
 _ids = itertools.count()
 
@@ -39,11 +42,31 @@ def _attach(node, ctx, executor) -> None:
         break
 
 
+def _context_of(context, what):
+    """A Context, or the context of a Node."""
+    from robocourse.bus.context import Context
+
+    ctx = context.context if hasattr(context, "get_fully_qualified_name") else context
+    if not isinstance(ctx, Context):
+        raise TypeError(f"{what} needs a Context or a Node, got {context!r:.80}; e.g. "
+                        f"{what}(ctx, ...) with ctx = Context(use_sim_time=True)")
+    return ctx
+
+
+def _check_topics(topics, what):
+    if topics is None:
+        return
+    if isinstance(topics, str) or not all(isinstance(x, str) for x in topics):
+        raise TypeError(f"{what}: topics={topics!r} must be a list of topic names such as "
+                        f"['/cmd_vel'], or None for every topic")
+
+
 def _encoder(msg_type):
     from mcap_ros2._dynamic import serialize_dynamic
 
     name = definition_name(msg_type._type)
-    return serialize_dynamic(name, full_definition(msg_type))[name]
+    encode = serialize_dynamic(name, full_definition(msg_type))[name]
+    return lambda msg: encode(wire_view(msg))
 
 
 class Recorder:
@@ -59,7 +82,11 @@ class Recorder:
 
         from robocourse.bus.node import Node
 
-        ctx = context.context if hasattr(context, "get_fully_qualified_name") else context
+        ctx = _context_of(context, "record")
+        _check_topics(topics, "record")
+        if not isinstance(path, (str, os.PathLike)):
+            raise TypeError(f"record: path={path!r} must be a file path (str or pathlib.Path), "
+                            f"e.g. 'run.mcap'")
         self.context = ctx
         self.path = str(path)
         self._file = open(self.path, "wb")
@@ -109,7 +136,7 @@ class Recorder:
         def write(msg, name=name, schema=schema):
             t = clock._now_ns()
             self._seq += 1
-            writer.write_message(name, schema, msg, log_time=t, publish_time=t, sequence=self._seq)
+            writer.write_message(name, schema, wire_view(msg), log_time=t, publish_time=t, sequence=self._seq)
             self.counts[name] += 1
 
         self._subs[name] = self.node.create_subscription(msg_type, name, write, qos)
@@ -203,11 +230,13 @@ class Player:
                  remap: dict | None = None, qos=None, executor=None):
         from robocourse.bus.node import Node
 
+        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0:
+            raise ValueError(f"replay: rate={rate!r} must be a number > 0 (1.0 = recorded speed)")
+        _args.seconds(delay, "replay(delay)", name="delay")
+        _check_topics(topics, "replay")
+        ctx = _context_of(context, "replay")
         if isinstance(recording, (str, bytes)) or hasattr(recording, "__fspath__"):
             recording = Recording(recording)
-        if rate <= 0:
-            raise ValueError(f"rate must be > 0, got {rate}")
-        ctx = context.context if hasattr(context, "get_fully_qualified_name") else context
         self.node = Node(f"_player_{next(_ids)}", context=ctx)
         remap = remap or {}
         entries = [e for e in recording.entries if topics is None or e[1] in topics]

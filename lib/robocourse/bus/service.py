@@ -12,6 +12,8 @@ Differences, on purpose:
 - ``call()`` where ROS would deadlock silently raises :class:`DeadlockError` explaining why:
   inside a callback on a single-threaded executor, inside a callback of the client's own
   mutually exclusive group, or when no executor spins the client's node on another thread.
+- Value semantics as in ROS 2: the server gets a copy of the request as it was at
+  ``call_async`` and the client a copy of the response as it was when the callback returned.
 - A request sent while no server exists is not silently lost: the client logs a warning
   (call ``wait_for_service`` first) and the future stays pending, as in ROS.
 """
@@ -88,7 +90,8 @@ class Service(_Queued):
         self.request_count += 1
         if self._raw:
             # internal deferred-response mode (action servers answer get_result later)
-            self.callback(request, lambda resp, err=None: client._respond(future, resp, err))
+            self.callback(request, lambda resp, err=None: client._respond(
+                future, None if resp is None else resp._copy(), err))
             return
         try:
             response = self.callback(request, self.srv_type.Response())
@@ -107,7 +110,7 @@ class Service(_Queued):
             err.__cause__ = exc
             client._respond(future, None, err)
             return
-        client._respond(future, response, None)
+        client._respond(future, response._copy(), None)   # the client's own value
 
     def _describe(self):
         return f"service callback of '{self.srv_name}' in node '{self._node.get_fully_qualified_name()}'"
@@ -165,7 +168,7 @@ class Client(_Queued):
                 f"be answered (ROS drops it too). Call client.wait_for_service() first.")
             return future
         self._pending.add(future)
-        server._receive(request, self, future)
+        server._receive(request._copy(), self, future)   # the value at call time
         return future
 
     def call(self, request, timeout_sec: float | None = None):

@@ -33,6 +33,7 @@ class Subscription:
         self.counts = _Counts()
         self.receive_count = 0
         self._clock = node.get_clock()
+        self._deadline = None           # DeadlineWatch when the profile has a deadline
         if self._maxlen is None:
             self._deliver = self._deliver_all
         else:

@@ -33,6 +33,8 @@ from robocourse.msgs._core import (
     ActionType,
     FieldSpec,
     MessageDefinitionError,
+    MessageFieldError,
+    MessageFieldRangeError,
     ServiceType,
     action,
     check_message,
@@ -50,7 +52,8 @@ from robocourse.msgs._core import (
 )
 
 __all__ = [
-    "REGISTRY", "ActionType", "FieldSpec", "MessageDefinitionError", "ServiceType", "action",
+    "REGISTRY", "ActionType", "FieldSpec", "MessageDefinitionError", "MessageFieldError",
+    "MessageFieldRangeError", "ServiceType", "action",
     "check_message", "definition_name", "from_dict", "full_definition", "get_message_type", "is_message_type",
     "make_message", "message", "numeric_paths", "service", "to_dict", "to_numpy",
 ]

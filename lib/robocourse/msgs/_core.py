@@ -5,10 +5,13 @@ rclpy counterpart: the Python classes that ``rosidl_generator_py`` generates fro
 ``message`` decorator parses it and turns a class into a slotted dataclass whose fields, types
 and defaults follow the ROS definition. Differences from rosidl-generated classes:
 
-- fixed-size numeric arrays (``float64[36] covariance``) are plain Python lists of length N
-  (rclpy uses ``numpy.ndarray``); unbounded sequences are lists (rclpy uses ``array.array``);
-- field values are not type-checked on assignment (rclpy checks in property setters); call
-  :func:`check_message` to validate a message explicitly.
+- field values are checked on construction and assignment with rclpy's rules and wording plus
+  the field path and a fix (``robocourse.msgs._fields``); robocourse also accepts an ``int`` in
+  a float field (stored as float; rclpy rejects it) and numpy arrays for sequences;
+- numeric sequences are ``array.array`` and numeric fixed arrays ``numpy.ndarray`` as in rclpy;
+  ``byte``/``char`` fields hold ints 0..255 (rclpy: ``bytes``/``str`` of length 1);
+- a message can be built with positional arguments in field order (rclpy: keywords only);
+- every type has ``_copy()``, a generated deep copy the bus uses for value semantics.
 
 A chapter adds its own type the same way as the built-in ones::
 
@@ -29,11 +32,20 @@ Services use :func:`service` (request and response separated by ``---``) and act
 
 from __future__ import annotations
 
-import dataclasses
+import functools
 import re
+from dataclasses import dataclass as _dataclass
 from typing import Any
 
 import numpy as np
+
+from robocourse.msgs._fields import (
+    FieldRule,
+    MessageFieldError,
+    MessageFieldRangeError,
+    build_methods,
+    default_maker,
+)
 
 #: Primitive ROS field types -> (python type, default value).
 PRIMITIVES: dict[str, tuple[type, Any]] = {
@@ -81,7 +93,7 @@ class MessageDefinitionError(ValueError):
     """A .msg/.srv/.action text or type name that does not follow the ROS 2 rules."""
 
 
-@dataclasses.dataclass(frozen=True)
+@_dataclass(frozen=True)
 class FieldSpec:
     """One field of a message definition (name, ROS type, array shape, default)."""
 
@@ -214,6 +226,15 @@ def parse_definition(text: str, package: str, where: str = "definition"):
     return fields, constants
 
 
+def _check_text_args(what: str, type_name, definition) -> None:
+    if not isinstance(type_name, str):
+        raise TypeError(f"{what}(type_name, definition): type_name={type_name!r} must be a str "
+                        f"such as 'my_pkg/msg/MyType'")
+    if not isinstance(definition, str):
+        raise TypeError(f"{what}({type_name!r}, definition): definition={definition!r:.60} must be "
+                        f"the .msg/.srv/.action text as a str, e.g. 'float64 x\\nfloat64 y'")
+
+
 def _resolve(type_name: str) -> type:
     try:
         return REGISTRY[type_name]
@@ -221,25 +242,6 @@ def _resolve(type_name: str) -> type:
         raise MessageDefinitionError(
             f"unknown message type {type_name!r}: define it (with @message) before the types "
             f"that use it, or import the module that defines it") from None
-
-
-def _default_factory(spec: FieldSpec, where: str):
-    default = _parse_default(spec, where)
-    if spec.is_primitive:
-        zero = PRIMITIVES[spec.base_type][1]
-        if spec.is_array:
-            if default is not None:
-                return lambda d=default: list(d)
-            if spec.is_fixed_array:
-                return lambda n=spec.array_size, z=zero: [z] * n
-            return list
-        return default if default is not None else zero
-    cls = _resolve(spec.base_type)
-    if spec.is_array:
-        if spec.is_fixed_array:
-            return lambda n=spec.array_size, c=cls: [c() for _ in range(n)]
-        return list
-    return cls
 
 
 class _Constants:
@@ -253,6 +255,7 @@ def message(type_name: str, definition: str):
     names and defaults), constants become class attributes, and it carries
     ``_type`` ("pkg/msg/Name"), ``_definition`` (the .msg text) and ``_fields`` (FieldSpec).
     """
+    _check_text_args("message", type_name, definition)
     m = _NAME_RE.match(type_name)
     if not m:
         raise MessageDefinitionError(
@@ -265,21 +268,22 @@ def _builder(type_name: str, definition: str, package: str):
     fields, constants = parse_definition(definition, package, where=type_name)
 
     def wrap(cls):
-        annotations = {}
+        if not isinstance(cls, type):
+            raise TypeError(f"@message({type_name!r}, ...) decorates a class, got {cls!r}")
+        rules, defaults = {}, {}
         for spec in fields:
-            annotations[spec.name] = Any
-        namespace = {k: v for k, v in cls.__dict__.items() if k not in ("__dict__", "__weakref__")}
-        namespace["__annotations__"] = annotations
-        for spec in fields:
-            factory = _default_factory(spec, type_name)
-            if callable(factory):
-                namespace[spec.name] = dataclasses.field(default_factory=factory)
-            else:
-                namespace[spec.name] = factory
+            nested = None if spec.is_primitive else _resolve(spec.base_type)
+            rules[spec.name] = FieldRule(spec, type_name, nested, INT_RANGES)
+            defaults[spec.name] = default_maker(spec, _parse_default(spec, type_name), nested)
+        namespace = {k: v for k, v in cls.__dict__.items()
+                     if k not in ("__dict__", "__weakref__", "__slots__")}
+        namespace["__slots__"] = tuple(s.name for s in fields)
+        namespace["__annotations__"] = {s.name: Any for s in fields}
+        namespace["__hash__"] = None          # mutable value type, like rclpy's classes
+        namespace.setdefault("__repr__", _message_repr)
         new_cls = type(cls.__name__, cls.__bases__, namespace)
         new_cls.__module__ = cls.__module__
         new_cls.__qualname__ = cls.__qualname__
-        new_cls = dataclasses.dataclass(slots=True)(new_cls)
         for cname, cvalue in constants.items():
             setattr(new_cls, cname, cvalue)
         new_cls._type = type_name
@@ -288,6 +292,9 @@ def _builder(type_name: str, definition: str, package: str):
         new_cls._constants = dict(constants)
         new_cls.__doc__ = (cls.__doc__ or f"ROS 2 message {type_name}.") + (
             f"\n\nDefinition ({type_name}):\n\n" + _indent(definition.strip("\n")))
+        build_methods(new_cls, fields, rules, defaults)
+        new_cls.__copy__ = new_cls._copy
+        new_cls.__deepcopy__ = lambda self, memo=None: self._copy()
         if type_name in REGISTRY and REGISTRY[type_name]._definition != new_cls._definition:
             raise MessageDefinitionError(
                 f"{type_name} is already registered with a different definition; "
@@ -297,6 +304,11 @@ def _builder(type_name: str, definition: str, package: str):
         return new_cls
 
     return wrap
+
+
+def _message_repr(self) -> str:
+    return f"{type(self).__name__}(" + ", ".join(
+        f"{s.name}={getattr(self, s.name)!r}" for s in self._fields) + ")"
 
 
 def _indent(text: str) -> str:
@@ -338,6 +350,7 @@ def _split_parts(text: str, n: int, type_name: str) -> list[str]:
 
 def service(type_name: str, definition: str) -> type:
     """Make a service type from .srv text (request ``---`` response)."""
+    _check_text_args("service", type_name, definition)
     m = _NAME_RE.match(type_name)
     if not m or m.group(2) != "srv":
         raise MessageDefinitionError(f"service type name {type_name!r} must look like 'pkg/srv/Name'")
@@ -364,6 +377,7 @@ def action(type_name: str, definition: str) -> type:
     Besides ``Goal``, ``Result`` and ``Feedback`` the type carries the wire types rclpy uses
     under ``Impl``: ``SendGoalService``, ``GetResultService`` and ``FeedbackMessage``.
     """
+    _check_text_args("action", type_name, definition)
     m = _NAME_RE.match(type_name)
     if not m or m.group(2) != "action":
         raise MessageDefinitionError(f"action type name {type_name!r} must look like 'pkg/action/Name'")
@@ -416,6 +430,10 @@ def is_message_type(obj) -> bool:
 
 def get_message_type(type_name: str) -> type:
     """Look up a registered type by full name (``"geometry_msgs/msg/Twist"``) or ``pkg/Name``."""
+    if not isinstance(type_name, str) or type_name.count("/") not in (1, 2):
+        raise MessageDefinitionError(
+            f"get_message_type: {type_name!r} must be a type name such as "
+            f"'geometry_msgs/msg/Twist' or 'geometry_msgs/Twist'")
     if type_name.count("/") == 1:
         if type_name in ALIASES:
             return _resolve(ALIASES[type_name])
@@ -508,25 +526,65 @@ def _literal(v) -> str:
     return repr(v)
 
 
+def _require_message(msg, what: str) -> None:
+    if not is_message_type(type(msg)):
+        raise TypeError(f"{what} needs a message object (e.g. Twist()), got {msg!r:.80} of type "
+                        f"{type(msg).__name__}; build one first, e.g. {what}(Float64(data=1.0))")
+
+
+def _require_type(msg_type, what: str) -> None:
+    if not is_message_type(msg_type):
+        raise TypeError(f"{what} needs a message type (a class such as Twist, made with "
+                        f"@message), got {msg_type!r:.80}; e.g. {what}(Twist, ...)")
+
+
 def to_dict(msg) -> dict:
     """Message -> plain nested dict/list (ROS field names), e.g. for YAML or JSON."""
+    _require_message(msg, "to_dict")
+    return _to_dict(msg)
+
+
+def _to_dict(msg) -> dict:
     out = {}
     for spec in msg._fields:
         v = getattr(msg, spec.name)
         if spec.is_primitive:
-            out[spec.name] = list(v) if spec.is_array else v
+            out[spec.name] = (v.tolist() if hasattr(v, "tolist") else list(v)) if spec.is_array else v
         elif spec.is_array:
-            out[spec.name] = [to_dict(x) for x in v]
+            out[spec.name] = [_to_dict(x) for x in v]
         else:
-            out[spec.name] = to_dict(v)
+            out[spec.name] = _to_dict(v)
     return out
+
+
+@functools.cache
+def _has_ndarray(msg_type: type) -> bool:
+    for spec in msg_type._fields:
+        if spec.is_primitive:
+            if spec.is_fixed_array and spec.base_type in NUMPY_DTYPES:
+                return True
+        elif _has_ndarray(_resolve(spec.base_type)):
+            return True
+    return False
+
+
+def wire_view(msg):
+    """What the ROS 2 CDR encoder (mcap_ros2) accepts for ``msg``: the message itself, or a
+    plain dict for types holding numpy fixed arrays (the encoder takes lists, not ndarrays)."""
+    return _to_dict(msg) if _has_ndarray(type(msg)) else msg
 
 
 def from_dict(msg_type: type, data) -> Any:
     """Plain dict (or any object with the fields as attributes) -> message of ``msg_type``.
 
-    Missing keys keep their defaults; unknown keys raise ``KeyError`` naming the field.
+    Missing keys keep their defaults; unknown keys raise ``KeyError`` naming the field; values
+    are checked like constructor arguments.
     """
+    _require_type(msg_type, "from_dict")
+    return _from_dict(msg_type, data)
+
+
+def _from_dict(msg_type: type, data) -> Any:
     msg = msg_type()
     names = {s.name: s for s in msg_type._fields}
     if isinstance(data, dict):
@@ -539,63 +597,40 @@ def from_dict(msg_type: type, data) -> Any:
     for key, value in items:
         spec = names[key]
         if spec.is_primitive:
-            if spec.is_array:
-                value = [x.item() if hasattr(x, "item") else x for x in value]
-            elif isinstance(value, (bytes, bytearray)) and spec.base_type in ("byte", "uint8"):
+            if isinstance(value, (bytes, bytearray)) and not spec.is_array and \
+                    spec.base_type in ("byte", "uint8", "char"):
                 value = value[0]
             setattr(msg, key, value)
         else:
             sub = _resolve(spec.base_type)
             if spec.is_array:
-                setattr(msg, key, [from_dict(sub, x) for x in value])
+                setattr(msg, key, [_from_dict(sub, x) for x in value])
             else:
-                setattr(msg, key, from_dict(sub, value))
+                setattr(msg, key, _from_dict(sub, value))
     return msg
 
 
 def check_message(msg) -> None:
-    """Validate every field against the definition; raise TypeError/ValueError naming it."""
+    """Check every field again (values changed in place, e.g. ``msg.name.append(3)``).
+
+    Assignments are checked when they happen; this walks the whole message and raises
+    :class:`MessageFieldError` / :class:`MessageFieldRangeError` naming the field path.
+    """
+    _require_message(msg, "check_message")
     _check(msg, msg._type)
 
 
 def _check(msg, path):
+    cls = type(msg)
     for spec in msg._fields:
         v = getattr(msg, spec.name)
-        where = f"{path}.{spec.name}"
-        if spec.is_array:
-            if not isinstance(v, (list, tuple, np.ndarray)):
-                raise TypeError(f"{where} must be a sequence ({_ros_type_name(spec)}), got {type(v).__name__}")
-            if spec.is_fixed_array and len(v) != spec.array_size:
-                raise ValueError(f"{where} must have exactly {spec.array_size} elements, got {len(v)}")
-            if spec.is_bounded and len(v) > spec.array_size:
-                raise ValueError(f"{where} may have at most {spec.array_size} elements, got {len(v)}")
-            for i, x in enumerate(v):
-                _check_scalar(spec, x, f"{where}[{i}]")
-        else:
-            _check_scalar(spec, v, where)
-
-
-def _check_scalar(spec, v, where):
-    if not spec.is_primitive:
-        if not (hasattr(v, "_type") and v._type == spec.base_type):
-            raise TypeError(f"{where} must be a {spec.base_type}, got {type(v).__name__}")
-        _check(v, where)
-        return
-    pytype = PRIMITIVES[spec.base_type][0]
-    if pytype is float:
-        if not isinstance(v, (int, float, np.floating, np.integer)) or isinstance(v, bool):
-            raise TypeError(f"{where} must be a number ({spec.base_type}), got {v!r}")
-    elif pytype is int:
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
-            raise TypeError(f"{where} must be an int ({spec.base_type}), got {v!r}")
-        lo, hi = INT_RANGES[spec.base_type]
-        if not lo <= int(v) <= hi:
-            raise ValueError(f"{where}={v} out of range for {spec.base_type} [{lo}, {hi}]")
-    elif pytype is bool:
-        if not isinstance(v, (bool, np.bool_)):
-            raise TypeError(f"{where} must be a bool, got {v!r}")
-    elif not isinstance(v, str):
-        raise TypeError(f"{where} must be a str, got {v!r}")
+        try:
+            cls._converters[spec.name](v)
+        except (MessageFieldError, MessageFieldRangeError) as exc:
+            raise type(exc)(f"{path}.{spec.name}: {exc}") from None
+        if not spec.is_primitive:
+            for i, x in enumerate(v if spec.is_array else [v]):
+                _check(x, f"{path}.{spec.name}" + (f"[{i}]" if spec.is_array else ""))
 
 
 def numeric_paths(msg_type: type, prefix: str = "") -> list[tuple[str, FieldSpec]]:
@@ -619,7 +654,12 @@ def to_numpy(messages, msg_type: type | None = None) -> dict[str, np.ndarray]:
     sequences of messages are skipped. ``builtin_interfaces/Time`` fields additionally get a
     ``<path>`` entry in float seconds (``"header.stamp"``).
     """
+    if isinstance(messages, (str, bytes)) or not hasattr(messages, "__iter__"):
+        raise TypeError(f"to_numpy needs a list of messages, got {messages!r:.80}; e.g. "
+                        f"to_numpy(received) where received = [msg, ...]")
     messages = list(messages)
+    if msg_type is not None:
+        _require_type(msg_type, "to_numpy")
     if msg_type is None:
         if not messages:
             raise ValueError("to_numpy needs msg_type when the message list is empty")

@@ -9,25 +9,13 @@ them by the maximum linear speed into motor commands in [-1, 1]. Forward: wheel 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+
+from robocourse.sim.params import DiffDriveGeometry, quaternion_to_yaw  # noqa: F401  (re-exported)
+
+_SEED_CAR = DiffDriveGeometry()   # the default geometry of every function below
 
 
-@dataclass(frozen=True)
-class DiffDriveGeometry:
-    """The seed's car: wheel base 0.15 m, wheel radius 0.0325 m, 0.5 m/s at full motor command."""
-
-    wheel_base: float = 0.15
-    wheel_radius: float = 0.0325
-    max_linear_speed: float = 0.5
-
-    def __post_init__(self):
-        for name in ("wheel_base", "wheel_radius", "max_linear_speed"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a positive number of metres (per second), got {v!r}")
-
-
-def twist_to_wheel_speeds(v: float, w: float, g: DiffDriveGeometry = DiffDriveGeometry()) -> tuple[float, float]:
+def twist_to_wheel_speeds(v: float, w: float, g: DiffDriveGeometry = _SEED_CAR) -> tuple[float, float]:
     """(left, right) wheel surface speeds in m/s for body speed v (m/s) and yaw rate w (rad/s)."""
     if not (math.isfinite(v) and math.isfinite(w)):
         raise ValueError(f"twist must be finite, got linear.x={v!r}, angular.z={w!r}")
@@ -35,12 +23,12 @@ def twist_to_wheel_speeds(v: float, w: float, g: DiffDriveGeometry = DiffDriveGe
     return v - half, v + half
 
 
-def wheel_speeds_to_twist(left: float, right: float, g: DiffDriveGeometry = DiffDriveGeometry()) -> tuple[float, float]:
+def wheel_speeds_to_twist(left: float, right: float, g: DiffDriveGeometry = _SEED_CAR) -> tuple[float, float]:
     """(v, w) of the body for (left, right) wheel surface speeds in m/s."""
     return (left + right) / 2.0, (right - left) / g.wheel_base
 
 
-def twist_to_motor_commands(v: float, w: float, g: DiffDriveGeometry = DiffDriveGeometry()) -> tuple[float, float]:
+def twist_to_motor_commands(v: float, w: float, g: DiffDriveGeometry = _SEED_CAR) -> tuple[float, float]:
     """Normalised motor commands in [-1, 1] (the seed's set_motor_speeds arguments).
 
     When a wheel would exceed full speed both are scaled down together, so the car still turns
@@ -54,7 +42,7 @@ def twist_to_motor_commands(v: float, w: float, g: DiffDriveGeometry = DiffDrive
     return left, right
 
 
-def motor_commands_to_twist(left: float, right: float, g: DiffDriveGeometry = DiffDriveGeometry()) -> tuple[float, float]:
+def motor_commands_to_twist(left: float, right: float, g: DiffDriveGeometry = _SEED_CAR) -> tuple[float, float]:
     return wheel_speeds_to_twist(left * g.max_linear_speed, right * g.max_linear_speed, g)
 
 
@@ -70,10 +58,6 @@ def integrate_pose(x: float, y: float, yaw: float, v: float, w: float, dt: float
 def yaw_to_quaternion(yaw: float) -> tuple[float, float, float, float]:
     """(x, y, z, w) quaternion of a rotation by ``yaw`` about z (ROS's order, as in geometry_msgs)."""
     return 0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0)
-
-
-def quaternion_to_yaw(x: float, y: float, z: float, w: float) -> float:
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
 def wrap_angle(a: float) -> float:

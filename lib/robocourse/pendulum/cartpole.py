@@ -19,29 +19,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from robocourse.sim.params import CartPoleParams  # noqa: F401  (re-exported)
+
 DEMO_K = np.array([-10.0000, -51.5393, 356.8637, 154.4146])
 UPRIGHT = np.array([0.0, 0.0, math.pi, 0.0])
-
-
-@dataclass(frozen=True)
-class CartPoleParams:
-    """``PendulumDriverConfig`` defaults of the demo."""
-
-    pole_mass: float = 1.0
-    cart_mass: float = 5.0
-    length: float = 2.0
-    damping: float = 20.0
-    gravity: float = -9.8
-    max_force: float = 1000.0
-    noise: float = 1.0
-
-    def __post_init__(self):
-        for name in ("pole_mass", "cart_mass", "length", "max_force"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ValueError(f"cart-pole {name} must be positive, got {v!r}")
-        if not (math.isfinite(self.damping) and self.damping >= 0 and self.noise >= 0):
-            raise ValueError(f"damping and noise must be >= 0, got {self.damping!r}, {self.noise!r}")
 
 
 def derivatives(state, force, p: CartPoleParams, disturbance=0.0):

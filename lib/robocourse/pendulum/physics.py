@@ -12,24 +12,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-GRAVITY = 9.80665  # the seed's constant
+from robocourse.sim.params import GRAVITY, PendulumProperties  # noqa: F401  (re-exported)
+
 PI = math.pi
 
 NAN_COMMAND = "Tried to set state to NaN in on_command_message callback"
-
-
-@dataclass
-class PendulumProperties:
-    """``PendulumProperties``: mass of the weight (kg) and length (m), the seed's defaults."""
-
-    mass: float = 0.01
-    length: float = 0.5
-
-    def __post_init__(self):
-        for name in ("mass", "length"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"pendulum {name} must be a positive finite number, got {value!r}")
 
 
 @dataclass

@@ -1,6 +1,6 @@
 """A differential-drive car in MuJoCo: chassis on a free joint, two driven wheels, a caster.
 
-Wheel base and radius come from :class:`robocourse.mycar.kinematics.DiffDriveGeometry`; the wheels
+Wheel base and radius come from :class:`robocourse.sim.params.DiffDriveGeometry`; the wheels
 are velocity servos with a torque limit, so wheels can slip and the car's true motion differs
 from what wheel odometry integrates: the ground truth is the chassis pose.
 """
@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from ..mycar.kinematics import DiffDriveGeometry, quaternion_to_yaw
+from .params import DiffDriveGeometry, quaternion_to_yaw
 
 
 def car_xml(g: DiffDriveGeometry, timestep: float = 0.001, wheel_torque: float = 0.3) -> str:

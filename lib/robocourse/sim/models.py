@@ -14,8 +14,7 @@ import math
 
 import numpy as np
 
-from ..pendulum.cartpole import CartPoleParams
-from ..pendulum.physics import GRAVITY, PendulumProperties
+from .params import GRAVITY, CartPoleParams, PendulumProperties
 
 _POINT = 'diaginertia="1e-9 1e-9 1e-9"'  # a point mass, as in the demos' equations
 
