@@ -161,6 +161,7 @@ class HardwareInfo:
     limits: dict[str, JointLimits] = field(default_factory=dict)
     original_xml: str = ""
     line: int = 0
+    plugin_line: int = 0
 
     @property
     def hardware_class_type(self) -> str:  # the humble name of the same field
@@ -298,7 +299,8 @@ def _hardware(el: _El, urdf_joints: dict[str, _El], text_lines: list[str]) -> Ha
         raise URDFError(f"Missing <plugin> tag of <hardware> element for '{name}' in your URDF.",
                         (hw or el).line, "add <hardware><plugin>mock_components/GenericSystem</plugin></hardware>")
     info = HardwareInfo(name=name, type=kind.lower(), hardware_plugin_name=hw.find("plugin").text.strip(),
-                        rw_rate=rw_rate, is_async=_bool(el.attrib.get("is_async", "false")), line=el.line)
+                        rw_rate=rw_rate, is_async=_bool(el.attrib.get("is_async", "false")), line=el.line,
+                        plugin_line=hw.find("plugin").line)
     info.hardware_parameters = _params(hw, f" of hardware '{name}'")
     if hw.find("group") is not None:
         info.group = hw.find("group").text.strip()

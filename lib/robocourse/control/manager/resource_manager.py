@@ -125,7 +125,7 @@ class ResourceManager:
                 try:
                     cls = pluginlib.load(info.hardware_plugin_name, pluginlib.HARDWARE_BASE)
                 except pluginlib.PluginlibException as exc:
-                    raise URDFError(str(exc), info.line,
+                    raise URDFError(str(exc), info.plugin_line,
                                     f"use a declared plugin name, or register your class first: "
                                     f"robocourse.control.pluginlib.register('{info.hardware_plugin_name}', MyClass)"
                                     ) from None
@@ -370,6 +370,10 @@ class ResourceManager:
         return out
 
     def prepare_command_mode_switch(self, start, stop) -> bool:
+        for k in list(start) + list(stop):
+            if k not in self._command_map:
+                self.logger.error(f"Can not switch command mode: command interface '{k}' does not exist")
+                return False
         starts, stops = self._by_component(start), self._by_component(stop)
         for name in sorted(set(starts) | set(stops)):
             c = self.components[name]
