@@ -35,3 +35,91 @@ def joint(name: str, commands=(), states=(), initial: dict | None = None) -> str
 # upstream's hardware_system_2dof_standard_interfaces (test_generic_system.cpp): pos+vel, 3.45 / 2.78
 STANDARD_2DOF = (joint("joint1", ("position", "velocity"), ("position", "velocity"), {"position": 3.45})
                  + joint("joint2", ("position", "velocity"), ("position", "velocity"), {"position": 2.78}))
+
+
+# --- test controllers (upstream's TestController / TestChainableController, in Python) ----------------------
+from robocourse.control import (  # noqa: E402
+    CallbackReturn,
+    ChainableControllerInterface,
+    ControllerInterface,
+    InterfaceConfiguration,
+    interface_configuration_type,
+    return_type,
+)
+
+INDIVIDUAL = interface_configuration_type.INDIVIDUAL
+
+
+class TestController(ControllerInterface):
+    """Claims the given interfaces, counts updates, writes ``value`` to its commands; scripted results."""
+
+    __test__ = False
+
+    def __init__(self, commands=(), states=(), value=1.0):
+        super().__init__()
+        self.commands, self.states, self.value = list(commands), list(states), value
+        self.updates: list[tuple[float, float]] = []
+        self.result = return_type.OK
+        self.raise_in_update: Exception | None = None
+        self.sleep_s = 0.0
+        self.script: dict[str, CallbackReturn] = {}
+
+    def command_interface_configuration(self):
+        return InterfaceConfiguration(INDIVIDUAL, self.commands)
+
+    def state_interface_configuration(self):
+        return InterfaceConfiguration(INDIVIDUAL, self.states)
+
+    def on_configure(self, s):
+        return self.script.get("on_configure", CallbackReturn.SUCCESS)
+
+    def on_activate(self, s):
+        return self.script.get("on_activate", CallbackReturn.SUCCESS)
+
+    def update(self, time, period):
+        self.updates.append((time, period))
+        if self.sleep_s:
+            import time as _t
+            _t.sleep(self.sleep_s)
+        if self.raise_in_update is not None:
+            raise self.raise_in_update
+        for loan in self.command_interfaces:
+            loan.set_value(self.value)
+        return self.result
+
+
+class TestChainable(ChainableControllerInterface):
+    """Exports reference interfaces ``<name>/<joint>/position``; forwards reference + 10 to its commands."""
+
+    __test__ = False
+
+    def __init__(self, commands=(), states=(), references=()):
+        super().__init__()
+        self.commands, self.states, self.references = list(commands), list(states), list(references)
+        self.updates = 0
+        self.from_subscribers = 0
+        self.chained_calls: list[bool] = []
+
+    def command_interface_configuration(self):
+        return InterfaceConfiguration(INDIVIDUAL, self.commands)
+
+    def state_interface_configuration(self):
+        return InterfaceConfiguration(INDIVIDUAL, self.states)
+
+    def on_export_reference_interfaces(self):
+        return self.references
+
+    def on_set_chained_mode(self, chained_mode):
+        self.chained_calls.append(chained_mode)
+        return True
+
+    def update_reference_from_subscribers(self, time, period):
+        self.from_subscribers += 1
+        return return_type.OK
+
+    def update_and_write_commands(self, time, period):
+        self.updates += 1
+        for k, loan in enumerate(self.command_interfaces):
+            ref = self.reference_interfaces[k] if k < len(self.reference_interfaces) else 0.0
+            loan.set_value(ref + 10.0)
+        return return_type.OK

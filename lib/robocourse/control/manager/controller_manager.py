@@ -761,17 +761,39 @@ class ControllerManager:
                         self._activate(self.controllers[n])
                 self._active = [s for s in self._ordered if s.state == ACTIVE]
 
+    def _fail_pending_switch(self) -> None:
+        with self._switch_lock:
+            self._pending = None
+
+    def enable_timing(self, capacity: int = 100_000):
+        """Record per-stage durations of every deterministic cycle in ``self.timing`` (a CycleTimes)."""
+        from .loop import CycleTimes
+
+        self.timing = CycleTimes(capacity)
+        return self.timing
+
     def cycle(self, time: float | None = None, period: float | None = None) -> None:
         """One read -> update -> write at ``time`` (default: the next tick of the manager's clock)."""
         if period is None:
             period = self.period
         if time is None:
             time = self.time + period
+        if self.timing is not None:
+            from .loop import timed_cycle
+
+            timed_cycle(self, self.timing, time, period)
+            return
         self.time = time
         self.read(time, period)
         self.update(time, period)
         self.write(time, period)
         self.cycles += 1
+
+    def run_realtime(self, seconds: float, **kwargs):
+        """The wall-clock loop (see :func:`robocourse.control.manager.loop.run_realtime`)."""
+        from .loop import run_realtime
+
+        return run_realtime(self, seconds, **kwargs)
 
     def step(self, n: int = 1) -> None:
         """``n`` deterministic cycles at the manager's period, with the bus callbacks due in between.
