@@ -264,11 +264,6 @@ class ControllerManager:
             return return_type.ERROR
         if spec.state == INACTIVE:
             spec.lifecycle.cleanup()
-        for fb in spec.fallback_controllers:
-            if fb not in self.controllers:
-                self.logger.error(f"Unable to configure controller '{name}': its fallback controller '{fb}' is not "
-                                  "loaded (load it first or remove it from fallback_controllers)")
-                return return_type.ERROR
         state = spec.lifecycle.configure()
         if state != INACTIVE:
             why = spec.lifecycle.last_exception
@@ -750,6 +745,11 @@ class ControllerManager:
             self._deactivate(s)
         fallbacks = [fb for n in failed for fb in self.controllers[n].fallback_controllers]
         self._active = [s for s in self._ordered if s.state == ACTIVE]
+        missing = [fb for fb in fallbacks if fb not in self.controllers or self.controllers[fb].state != INACTIVE]
+        if missing:
+            self.logger.error(f"Fallback controllers [ {' '.join(missing)} ] are not loaded and configured "
+                              f"(inactive): none of [ {' '.join(fallbacks)} ] is activated")
+            fallbacks = []
         if fallbacks:
             problem = self._check_interfaces([f for f in fallbacks if self.controllers[f].state == INACTIVE], [])
             if problem:
