@@ -75,7 +75,7 @@ class JointStateBroadcaster(ControllerInterface):
 
     def on_activate(self, previous_state):
         mapping = self.params.map_interface_to_joint_state
-        rename = {getattr(mapping, f): f for f in _FIELDS}
+        rename = {getattr(mapping, f): f for f in reversed(_FIELDS)}   # position wins, then velocity
         loans = self.state_interfaces
         if self._use_all():
             loans = sorted(loans, key=lambda loan: loan.name)
