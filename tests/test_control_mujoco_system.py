@@ -7,7 +7,15 @@ import math
 import numpy as np
 import pytest
 
-from robocourse.control import ACTIVE, INACTIVE, STRICT, UNCONFIGURED, ControllerManager, URDFError, return_type
+from robocourse.control import (
+    ACTIVE,
+    INACTIVE,
+    STRICT,
+    UNCONFIGURED,
+    ControllerManager,
+    URDFError,
+    return_type,
+)
 from robocourse.control.hardware.mujoco_system import MujocoSystem
 from robocourse.control.log import LogSink
 from robocourse.sim.robots import RobotSim, urdf_text
