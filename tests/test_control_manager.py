@@ -478,3 +478,39 @@ def test_list_controllers_reports_chain_connections():
     assert by["follower"].is_chainable and by["follower"].is_chained
     assert by["follower"].reference_interfaces == ["follower/joint1/position"]
     assert by["preceding"].claimed_interfaces == ["follower/joint1/position"]
+
+
+# --- controller lifecycle, transition by transition --------------------------------------------------------
+@pytest.mark.parametrize("result, expected", [
+    (0, INACTIVE),               # SUCCESS
+    (1, UNCONFIGURED),           # FAILURE: stays
+    (2, UNCONFIGURED),           # ERROR: on_error SUCCESS -> unconfigured
+])
+def test_controller_configure_transition(result, expected):
+    cm = make_cm()
+    c = add(cm, "c", TestController([P1]), configure=False)
+    c.script["on_configure"] = result
+    ret = cm.configure_controller("c")
+    assert state(cm, "c") == expected and ret == (return_type.OK if expected == INACTIVE else return_type.ERROR)
+
+
+@pytest.mark.parametrize("result, expected", [(1, INACTIVE), (2, UNCONFIGURED)])
+def test_controller_activate_failure_releases_its_claims(result, expected):
+    cm = make_cm()
+    c = add(cm, "c", TestController([P1]))
+    c.script["on_activate"] = result
+    assert cm.switch_controller(["c"], [], STRICT) == return_type.ERROR
+    assert "Unable to activate controllers: [ c ]" in cm.last_switch_message
+    assert state(cm, "c") == expected and not cm.rm.command_interface_is_claimed(P1)
+    assert cm.log.count(f"After activation, controller 'c' is in state '{expected.label}'") == 1
+
+
+def test_configure_from_inactive_cleans_up_first_and_active_is_refused():
+    cm = make_cm()
+    add(cm, "c", TestController([P1]))
+    assert cm.configure_controller("c") == return_type.OK and state(cm, "c") == INACTIVE
+    cm.switch_controller(["c"], [], STRICT)
+    assert cm.configure_controller("c") == return_type.ERROR
+    assert cm.log.count("Controller 'c' can not be configured from 'active' state.") == 1
+    cm.switch_controller([], ["c"], STRICT)
+    assert cm.cleanup_controller("c") == return_type.OK and state(cm, "c") == UNCONFIGURED
