@@ -7,7 +7,8 @@ import xml.dom.minidom
 import pytest
 from control_robots import TestChainable, TestController
 
-from robocourse.control import STRICT, introspection as ic
+from robocourse.control import STRICT
+from robocourse.control import introspection as ic
 from robocourse.control.bringup import bringup
 from robocourse.control.log import LogSink
 from robocourse.control.msgs import ControllerState, HardwareInterface
