@@ -41,26 +41,26 @@ from robocourse.sim.robots import urdf_text  # noqa: E402
 
 ARM = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
        "wrist_3_joint", "finger_joint"]
-PARAMS = """
+
+
+def params(rate: int) -> str:
+    return f"""
 controller_manager:
   ros__parameters:
-    update_rate: %d
-    fwd: {type: position_controllers/JointGroupPositionController}
-    jsb: {type: joint_state_broadcaster/JointStateBroadcaster}
-fwd: {ros__parameters: {joints: [%s]}}
-""" % (500, ", ".join(ARM))
+    update_rate: {rate}
+    fwd: {{type: position_controllers/JointGroupPositionController}}
+    jsb: {{type: joint_state_broadcaster/JointStateBroadcaster}}
+fwd: {{ros__parameters: {{joints: [{", ".join(ARM)}]}}}}
+"""
 
 
 def make(plugin: str, rate: int = 500):
-    cm = ControllerManager(urdf_text("ur5e", plugin=plugin), params=PARAMS.replace("500", str(rate)),
-                           log=LogSink(log_to_stderr=False))
+    cm = ControllerManager(urdf_text("ur5e", plugin=plugin), params=params(rate), log=LogSink(log_to_stderr=False))
     cm.load_and_configure("fwd")
     cm.load_and_configure("jsb")
     assert cm.switch_controller(["fwd", "jsb"], [], STRICT) == 0, cm.last_switch_message
-    listener = cm.context.create_node("listener")
-    received = []
-    listener.create_subscription(JointState, "/joint_states", lambda m: received.append(1) if len(received) < 1 else None,
-                                 10)
+    listener = cm.context.create_node("listener")      # one subscriber, so /joint_states is delivered
+    listener.create_subscription(JointState, "/joint_states", lambda msg: None, 10)
     return cm
 
 
@@ -92,7 +92,6 @@ class HandWritten:
         comp = next(iter(rm.components.values()))
         self.impl = comp.impl
         self.sim = getattr(self.impl, "sim", None)
-        self.fwd_slice = slice(rm._command_map[f"{ARM[0]}/position"][1], rm._command_map[f"{ARM[0]}/position"][1] + 1)
         idx = [rm._command_map[f"{j}/position"][1] for j in ARM]
         self.fwd_idx = np.array(idx, dtype=np.intp)
         jsb = cm.controllers["jsb"].c
