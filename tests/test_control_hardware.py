@@ -20,6 +20,7 @@ from robocourse.control import (
     CallbackReturn,
     ResourceError,
     ResourceManager,
+    SensorInterface,
     SystemInterface,
     URDFError,
     parse_control_resources_from_urdf,
@@ -417,3 +418,61 @@ def test_loans_are_views_of_the_component_arrays():
     state = rm.claim_state_interface("joint1/position")
     impl.set_state("joint1/position", -1.25)
     assert state.get_value() == -1.25
+
+
+# --- kinds, rates ------------------------------------------------------------------------------------------
+class CountingSensor(SensorInterface):
+    def __init__(self):
+        super().__init__()
+        self.reads = 0
+
+    def read(self, time, period):
+        self.reads += 1
+        self.set_state("ft/force.z", 9.81)
+        return return_type.OK
+
+
+def test_sensor_component_has_no_commands_and_is_never_written():
+    block = ('<ros2_control name="FT" type="sensor"><hardware><plugin>test/CountingSensor</plugin></hardware>'
+             '<sensor name="ft"><state_interface name="force.z"/></sensor></ros2_control>')
+    rm = ResourceManager(urdf(block), components={"FT": CountingSensor()}, log=quiet())
+    rm.read(0.0, 0.01)
+    assert rm.write(0.0, 0.01).ok and rm.command_interface_keys() == [] and rm.value("ft/force.z") == 9.81
+    with pytest.raises(URDFError, match="is declared type=\"system\" but its plugin CountingSensor is a sensor"):
+        ResourceManager(urdf(block.replace('type="sensor"', 'type="system"')), components={"FT": CountingSensor()},
+                        log=quiet())
+
+
+def test_rw_rate_below_the_manager_rate_skips_cycles_and_passes_its_own_period():
+    rm, impl = None, Scripted()
+    rm = ResourceManager(urdf(generic("S", body=STANDARD_2DOF, rw_rate=50)), components={"S": impl}, log=quiet(),
+                         update_rate=100)
+    periods = []
+    orig = impl.read
+
+    def read(t, p):
+        periods.append(round(p, 6))
+        return orig(t, p)
+
+    impl.read = read
+    for k in range(1, 11):
+        rm.read(k * 0.01, 0.01)
+        rm.write(k * 0.01, 0.01)
+    assert impl.reads == 5 and impl.writes == 5
+    assert periods == [0.02, 0.02, 0.02, 0.02, 0.02]
+
+
+def test_initial_states_parameter_and_activation_from_unconfigured():
+    text = urdf(generic("A", body=joint("joint1", ("position",), ("position",))),
+                generic("B", body=joint("joint2", ("position",), ("position",))))
+    rm = ResourceManager(text, initial_states={"A": "unconfigured", "B": "inactive"}, log=quiet())
+    assert rm.get_components_status() == {"A": UNCONFIGURED, "B": INACTIVE}
+    assert rm.available_state_interfaces() == ["joint2/position"]
+    assert rm.available_command_interfaces() == ["joint2/position"]     # INACTIVE still offers commands (#931)
+    assert rm.set_component_state("A", "active") == return_type.OK      # configures on the way
+    assert rm.set_component_state("A", "active") == return_type.OK
+    assert rm.get_components_status()["A"] == ACTIVE
+    with pytest.raises(ValueError, match="hardware component 'C' does not exist"):
+        rm.set_component_state("C", "active")
+    with pytest.raises(ValueError, match="unknown lifecycle state 'running'"):
+        rm.set_component_state("A", "running")

@@ -514,3 +514,27 @@ def test_configure_from_inactive_cleans_up_first_and_active_is_refused():
     assert cm.log.count("Controller 'c' can not be configured from 'active' state.") == 1
     cm.switch_controller([], ["c"], STRICT)
     assert cm.cleanup_controller("c") == return_type.OK and state(cm, "c") == UNCONFIGURED
+
+
+# --- the wall-clock loop ------------------------------------------------------------------------------------
+def test_realtime_run_records_every_stage_and_reports_settings():
+    cm = make_cm(update_rate=500)
+    add(cm, "c", TestController([P1]))
+    cm.switch_controller(["c"], [], STRICT)
+    result = cm.run_realtime(0.1, settings={"policy": None, "lock": False, "gc_mode": "freeze"})
+    stats = result.times.stats()
+    assert result.loop.iterations == 50 and result.times.count == 50
+    assert stats["cycle"].count == 50
+    assert stats["cycle"].min_us >= stats["read"].min_us and stats["cycle"].max_us > 0
+    assert len(result.settings_reports) == 1 and "gc" in str(result.settings_reports[0]).lower()
+    assert 0 < result.cpu_fraction and "overruns:" in result.table()
+    assert cm.time == pytest.approx(0.1)
+
+
+def test_deterministic_timing_table():
+    cm = make_cm()
+    add(cm, "c", TestController([P1]))
+    cm.switch_controller(["c"], [], STRICT)
+    times = cm.enable_timing(100)
+    cm.step(20)
+    assert times.count == 20 and times.table().splitlines()[0].split()[:3] == ["stage", "min", "us"]
