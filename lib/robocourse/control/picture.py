@@ -41,6 +41,15 @@ def _text(x, y, s, size=12, weight="normal", anchor="start", fill="#222"):
             f'text-anchor="{anchor}" fill="{fill}">{escape(s)}</text>')
 
 
+def _interface_row(parts, rm, key: str, x: float, y: float, width: float) -> None:
+    """One command (or reference) interface: claimed blue, available white, unavailable grey."""
+    claimed, avail = rm.command_interface_is_claimed(key), rm.command_interface_is_available(key)
+    fill = "#7fb2f0" if claimed else ("#ffffff" if avail else "#bbbbbb")
+    parts.append(f'<rect x="{x}" y="{y}" width="{width}" height="{ROW - 3}" fill="{fill}" stroke="#777"/>')
+    owner = rm.claimed.get(key, "")
+    parts.append(_text(x + 4, y + 12, key + (f"  <- {owner}" if claimed else ""), 11))
+
+
 def system_picture(cm) -> SystemPicture:
     """Draw ``cm`` (a ControllerManager) as it is now."""
     rm = cm.rm
@@ -57,12 +66,7 @@ def system_picture(cm) -> SystemPicture:
         parts.append(_text(HW_X + 8, y + 34, comp.info.hardware_plugin_name, 10, fill="#444"))
         ry = y + 40
         for key in comp.command_keys:
-            claimed, avail = rm.command_interface_is_claimed(key), rm.command_interface_is_available(key)
-            fill = "#7fb2f0" if claimed else ("#ffffff" if avail else "#bbbbbb")
-            parts.append(f'<rect x="{HW_X + 8}" y="{ry}" width="{HW_W - 16}" height="{ROW - 3}" fill="{fill}" '
-                         'stroke="#777"/>')
-            owner = rm.claimed.get(key, "")
-            parts.append(_text(HW_X + 12, ry + 12, key + (f"  <- {owner}" if claimed else ""), 11))
+            _interface_row(parts, rm, key, HW_X + 8, ry, HW_W - 16)
             anchors[key] = (HW_X + 8, ry + ROW / 2 - 1)
             ry += ROW
         n_state = len(comp.state_keys)
@@ -84,12 +88,7 @@ def system_picture(cm) -> SystemPicture:
                            fill="#444"))
         ry = y + 40
         for key in refs:
-            claimed, avail = rm.command_interface_is_claimed(key), rm.command_interface_is_available(key)
-            fill = "#7fb2f0" if claimed else ("#ffffff" if avail else "#bbbbbb")
-            parts.append(f'<rect x="{CTRL_X + 8}" y="{ry}" width="{CTRL_W - 16}" height="{ROW - 3}" fill="{fill}" '
-                         'stroke="#777"/>')
-            owner = rm.claimed.get(key, "")
-            parts.append(_text(CTRL_X + 12, ry + 12, key + (f"  <- {owner}" if claimed else ""), 11))
+            _interface_row(parts, rm, key, CTRL_X + 8, ry, CTRL_W - 16)
             anchors[key] = (CTRL_X + CTRL_W - 8, ry + ROW / 2 - 1)
             ry += ROW
         ctrl_anchor[c.name] = (CTRL_X + CTRL_W, y + 18)

@@ -66,8 +66,7 @@ class _Component:
         self.info = wrapper.info
         self.state_keys = state_keys
         self.command_keys = command_keys
-        self.last_read: float | None = None
-        self.last_write: float | None = None
+        self.last: dict[str, float | None] = {"read": None, "write": None}
         self.nan_states: set[str] = set()
 
 
@@ -415,29 +414,35 @@ class ResourceManager:
         t = time - last
         return abs(t * rate - 1.0) <= abs((t + 1.0 / self.update_rate) * rate - 1.0), t
 
-    def read(self, time: float, period: float) -> HardwareReadWriteStatus:
-        """Call read() of every INACTIVE/ACTIVE component; failures are handled, never raised."""
+    def _run(self, components, stage: str, time: float, period: float):
+        """Call ``stage`` ("read"/"write") of each due component; return the failures or None."""
         failed = None
-        for c in self._read_list:
+        for c in components:
             if c.info.rw_rate:
-                due, dt = self._due(c, c.last_read, time)
+                due, dt = self._due(c, c.last[stage], time)
                 if not due:
                     continue
             else:
                 dt = period
-            c.last_read = time
+            c.last[stage] = time
             try:
-                ret = c.impl.read(time, dt)
+                ret = (c.impl.read if stage == "read" else c.impl.write)(time, dt)
             except Exception as exc:
                 if not self.handle_exceptions:
                     raise
-                self.logger.error(f"Exception of type : {type(exc).__name__} occurred while reading from "
+                where = "reading from" if stage == "read" else "writing to"
+                self.logger.error(f"Exception of type : {type(exc).__name__} occurred while {where} "
                                   f"hardware '{c.name}': {exc}")
                 ret = return_type.ERROR
             if ret is not return_type.OK and ret != return_type.OK:
                 if failed is None:
                     failed = []
-                failed.append((c, ret, "read"))
+                failed.append((c, ret, stage))
+        return failed
+
+    def read(self, time: float, period: float) -> HardwareReadWriteStatus:
+        """Call read() of every INACTIVE/ACTIVE component; failures are handled, never raised."""
+        failed = self._run(self._read_list, "read", time, period)
         if failed is None:
             self._check_nan()
             return _OK
@@ -445,30 +450,8 @@ class ResourceManager:
 
     def write(self, time: float, period: float) -> HardwareReadWriteStatus:
         """Call write() of every ACTIVE non-sensor component; ERROR/DEACTIVATE handled like upstream."""
-        failed = None
-        for c in self._write_list:
-            if c.info.rw_rate:
-                due, dt = self._due(c, c.last_write, time)
-                if not due:
-                    continue
-            else:
-                dt = period
-            c.last_write = time
-            try:
-                ret = c.impl.write(time, dt)
-            except Exception as exc:
-                if not self.handle_exceptions:
-                    raise
-                self.logger.error(f"Exception of type : {type(exc).__name__} occurred while writing to "
-                                  f"hardware '{c.name}': {exc}")
-                ret = return_type.ERROR
-            if ret is not return_type.OK and ret != return_type.OK:
-                if failed is None:
-                    failed = []
-                failed.append((c, ret, "write"))
-        if failed is None:
-            return _OK
-        return self._handle_failures(failed)
+        failed = self._run(self._write_list, "write", time, period)
+        return _OK if failed is None else self._handle_failures(failed)
 
     def _handle_failures(self, failed) -> HardwareReadWriteStatus:
         status = HardwareReadWriteStatus(ok=False, result=return_type.ERROR)
