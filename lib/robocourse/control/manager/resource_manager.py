@@ -171,34 +171,32 @@ class ResourceManager:
             n_cmd += len(cm)
         self.state_values = np.full(n_state, math.nan)
         self.command_values = np.full(n_cmd, math.nan)
-        si = ci = 0
+        offsets = {"state": 0, "command": 0}
         for w, st, cm in exported:
-            s0, c0 = si, ci
-            skeys, ckeys = [], []
-            for d in st:
-                if d.name in self._state_map:
-                    raise URDFError(f"state interface '{d.name}' is exported twice ('{self._owner[d.name]}' and "
-                                    f"'{w.name}')", w.info.line, "each interface belongs to one component")
-                self._state_map[d.name] = (self.state_values, si)
-                self._owner[d.name] = w.name
-                self.state_values[si] = d.initial_value
-                skeys.append(d.name)
-                si += 1
-            for d in cm:
-                if d.name in self._command_map:
-                    raise URDFError(f"command interface '{d.name}' is exported twice ('{self._owner[d.name]}' and "
-                                    f"'{w.name}')", w.info.line, "each interface belongs to one component")
-                self._command_map[d.name] = (self.command_values, ci)
-                self._owner[d.name] = w.name
-                self.command_values[ci] = d.initial_value
-                ckeys.append(d.name)
-                ci += 1
-            w.impl.state_values = self.state_values[s0:si]
-            w.impl.command_values = self.command_values[c0:ci]
+            skeys, s0, s1 = self._place(w, st, "state", self._state_map, self.state_values, offsets)
+            ckeys, c0, c1 = self._place(w, cm, "command", self._command_map, self.command_values, offsets)
+            w.impl.state_values = self.state_values[s0:s1]
+            w.impl.command_values = self.command_values[c0:c1]
             w.impl.state_index = {k: i for i, k in enumerate(skeys)}
             w.impl.command_index = {k: i for i, k in enumerate(ckeys)}
             self.components[w.name] = _Component(w, skeys, ckeys)
         self._update_lists()
+
+    def _place(self, w, descriptions, kind: str, table: dict, values: np.ndarray, offsets: dict):
+        """Give each exported interface of ``w`` the next slot of ``values``; (keys, first, end)."""
+        first = offsets[kind]
+        keys = []
+        for d in descriptions:
+            if d.name in table:
+                raise URDFError(f"{kind} interface '{d.name}' is exported twice ('{self._owner[d.name]}' and "
+                                f"'{w.name}')", w.info.line, "each interface belongs to one component")
+            i = offsets[kind]
+            table[d.name] = (values, i)
+            self._owner[d.name] = w.name
+            values[i] = d.initial_value
+            keys.append(d.name)
+            offsets[kind] = i + 1
+        return keys, first, offsets[kind]
 
     # --- lookups ------------------------------------------------------------------------------------
     def state_interface_keys(self) -> list[str]:
