@@ -476,3 +476,9 @@ def test_initial_states_parameter_and_activation_from_unconfigured():
         rm.set_component_state("C", "active")
     with pytest.raises(ValueError, match="unknown lifecycle state 'running'"):
         rm.set_component_state("A", "running")
+
+
+def test_async_components_are_refused_clearly():
+    text = urdf(generic(body=STANDARD_2DOF)).replace('type="system"', 'type="system" is_async="true"')
+    with pytest.raises(URDFError, match='is_async="true" on <ros2_control name="GenericSystem2dof"> is not supported'):
+        ResourceManager(text, log=quiet())

@@ -538,3 +538,47 @@ def test_deterministic_timing_table():
     times = cm.enable_timing(100)
     cm.step(20)
     assert times.count == 20 and times.table().splitlines()[0].split()[:3] == ["stage", "min", "us"]
+
+
+# --- a student's own component, registered like a pluginlib plugin ---------------------------------------------
+from robocourse.control import CallbackReturn, plugin  # noqa: E402
+
+
+@plugin("my_robot/RRBotSystemPositionOnly")
+class RRBotSystemPositionOnly(SystemInterface):
+    """ros2_control_demos example_1: the state moves toward the command by (cmd - state) / slowdown."""
+
+    def on_init(self, info):
+        super().on_init(info)
+        self.slowdown = float(info.hardware_parameters.get("example_param_hw_slowdown", "1.0"))
+        return CallbackReturn.SUCCESS
+
+    def on_activate(self, previous_state):
+        for j in self.info.joints:          # no jump: commands start at the current positions
+            self.set_command(f"{j.name}/position", self.get_state(f"{j.name}/position"))
+        return CallbackReturn.SUCCESS
+
+    def read(self, time, period):
+        for j in self.info.joints:
+            s, c = self.get_state(f"{j.name}/position"), self.get_command(f"{j.name}/position")
+            self.set_state(f"{j.name}/position", s + (c - s) / self.slowdown)
+        return return_type.OK
+
+    def write(self, time, period):
+        return return_type.OK
+
+
+def test_student_component_by_plugin_name_converges_geometrically():
+    body = ("".join(f'<joint name="{j}"><command_interface name="position"/><state_interface name="position">'
+                    f'<param name="initial_value">0.0</param></state_interface></joint>' for j in ("joint1", "joint2")))
+    text = urdf(generic("RRBot", {"example_param_hw_slowdown": "4.0"}, body=body).replace(
+        "mock_components/GenericSystem", "my_robot/RRBotSystemPositionOnly"))
+    cm = ControllerManager(text, log=LogSink(log_to_stderr=False))
+    c = add(cm, "c", TestController([P1, P2], value=1.0))
+    cm.step(1)
+    assert cm.rm.components["RRBot"].impl.get_command(P1) == 0.0      # on_activate copied the state
+    cm.switch_controller(["c"], [], STRICT)
+    cm.step(5)
+    # first update writes 1.0, then 4 reads move the state: 1 - (3/4)^4
+    assert cm.rm.value(P1) == pytest.approx(1 - 0.75 ** 4)
+    assert len(c.updates) == 5

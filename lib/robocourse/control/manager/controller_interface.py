@@ -74,7 +74,9 @@ class ControllerInterface:
             raise ValueError(f"update_rate of controller '{name}' must be an int >= 0 (Hz, 0 = the manager's "
                              f"{cm_update_rate} Hz), got {rate!r}")
         self.update_rate = rate if rate else cm_update_rate
-        self.is_async = bool(parameters.get("is_async", False))
+        if parameters.get("is_async", False):
+            raise ValueError(f"is_async: true for controller '{name}' is not supported by robocourse (every controller "
+                             "runs in the manager's loop); remove the parameter")
         if self.PARAMS is not None:
             own = {k: v for k, v in parameters.items() if k not in ("update_rate", "is_async", "type")}
             self.param_listener = ParamListener(self.PARAMS, own)

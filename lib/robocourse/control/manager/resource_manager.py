@@ -119,6 +119,10 @@ class ResourceManager:
                              f"(it has {[i.name for i in infos]}); use the name attribute of <ros2_control>")
         wrappers = []
         for info in infos:
+            if info.is_async:
+                raise URDFError(f'is_async="true" on <ros2_control name="{info.name}"> is not supported by robocourse '
+                                "(every component is read and written in the manager's loop)", info.line,
+                                'remove is_async (or set is_async="false")')
             impl = components.get(info.name)
             if impl is None:
                 try:
