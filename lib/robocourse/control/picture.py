@@ -17,9 +17,9 @@ from html import escape
 STATE_FILL = {"active": "#b7e4b0", "inactive": "#b9e8f0", "unconfigured": "#f6e7a1", "finalized": "#f4b6b6",
               "unknown": "#dddddd"}
 ROW = 18
-WIDTH = 760
-CTRL_X, CTRL_W = 20, 300
-HW_X, HW_W = 440, 300
+WIDTH = 1000
+CTRL_X, CTRL_W = 20, 390
+HW_X, HW_W = 560, 420
 
 
 class SystemPicture:
