@@ -59,6 +59,7 @@ class TestController(ControllerInterface):
         super().__init__()
         self.commands, self.states, self.value = list(commands), list(states), value
         self.updates: list[tuple[float, float]] = []
+        self.record = True
         self.result = return_type.OK
         self.raise_in_update: Exception | None = None
         self.sleep_s = 0.0
@@ -77,7 +78,8 @@ class TestController(ControllerInterface):
         return self.script.get("on_activate", CallbackReturn.SUCCESS)
 
     def update(self, time, period):
-        self.updates.append((time, period))
+        if self.record:
+            self.updates.append((time, period))
         if self.sleep_s:
             import time as _t
             _t.sleep(self.sleep_s)

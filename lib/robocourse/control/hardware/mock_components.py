@@ -171,7 +171,7 @@ class GenericSystem(SystemInterface):
         buf = self._buf
         if len(buf):
             np.take(cmd, self._src, out=buf)
-            if np.isinf(buf).any():
+            if np.isinf(buf, out=self._nan).any():     # preallocated mask: no new array per cycle
                 return return_type.ERROR
             if self.calculate_dynamics:
                 self._dynamics(cmd, st, period)
