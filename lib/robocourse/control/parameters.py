@@ -445,8 +445,9 @@ def load_parameter_file(source) -> dict[str, dict]:
     is merged under every node that asks (key ``"/**"``); namespaces (``/ns/node``) keep their
     last component. A node entry without ``ros__parameters`` is an error naming the node and the fix.
     """
-    text = Path(source).read_text() if isinstance(source, Path) or (
-        isinstance(source, str) and "\n" not in source and source.endswith((".yaml", ".yml"))) else source
+    is_path = isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and (
+        source.endswith((".yaml", ".yml")) or Path(source).is_file()))
+    text = Path(source).read_text() if is_path else source
     data = yaml.safe_load(text) or {}
     if not isinstance(data, dict):
         raise ValueError("a ROS 2 parameter file must be a mapping of node names, e.g. "
