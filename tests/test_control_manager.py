@@ -604,3 +604,31 @@ def test_steady_cycle_allocates_no_lasting_memory():
     finally:
         tracemalloc.stop()
     assert after - before < 16_000
+
+
+# --- robot_description arriving later (test_controller_manager_with_resource_manager.cpp) -----------------------
+def test_manager_waits_for_a_valid_robot_description_on_the_topic():
+    from robocourse.bus import DurabilityPolicy, QoSProfile
+    from robocourse.msgs.std_msgs import String
+
+    cm = ControllerManager(None, log=LogSink(log_to_stderr=False))
+    assert not cm.rm.is_initialized
+    assert cm.log.count("Waiting for data on 'robot_description' topic to finish initialization") == 1
+    assert cm.load_controller("c", controller=TestController([P1])) is None
+    assert cm.log.count("Resource Manager is not initialized yet!") == 1
+    cm.step(2)                                            # the loop runs with no hardware
+    pub = cm.context.create_node("robot_state_publisher").create_publisher(
+        String, "/robot_description", QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    valid = urdf(generic(body=STANDARD_2DOF))
+    pub.publish(String(data=valid.replace("<plugin>mock_components/GenericSystem</plugin>", "")))
+    cm.step(1)
+    assert not cm.rm.is_initialized
+    assert cm.log.count("Missing <plugin> tag of <hardware> element for 'GenericSystem2dof' in your URDF.") == 1
+    pub.publish(String(data=valid))
+    cm.step(1)
+    assert cm.rm.is_initialized and cm.rm.get_components_status() == {"GenericSystem2dof": ACTIVE}
+    add(cm, "c", TestController([P1]))
+    assert cm.switch_controller(["c"], [], STRICT) == return_type.OK
+    pub.publish(String(data=valid))
+    cm.step(1)
+    assert cm.log.count("ResourceManager has already loaded a urdf. Ignoring attempt to reload") == 1

@@ -143,14 +143,12 @@ class ControllerManager:
 
             context = Context(use_sim_time=True)
         self.context = context
-        if resource_manager is None:
-            initial = {n: "unconfigured" for n in self.params.hardware_components_initial_state.unconfigured}
-            initial.update({n: "inactive" for n in self.params.hardware_components_initial_state.inactive})
-            resource_manager = ResourceManager(urdf, update_rate=self.update_rate, components=components,
-                                               initial_states=initial, log=self.log,
-                                               handle_exceptions=self.params.handle_exceptions) if urdf else None
+        self._components = components
         self.rm = resource_manager if resource_manager is not None else ResourceManager(
-            update_rate=self.update_rate, log=self.log)
+            update_rate=self.update_rate, log=self.log, handle_exceptions=self.params.handle_exceptions)
+        if resource_manager is None and urdf is not None:
+            self.rm.load_and_initialize_components(urdf, components=components)
+            self.rm.activate_components(self._initial_states())
         self.controllers: dict[str, ControllerSpec] = {}
         self._ordered: list[ControllerSpec] = []
         self._active: list[ControllerSpec] = []
@@ -163,6 +161,41 @@ class ControllerManager:
         self._node = None
         self._executor = None
         self.timing = None  # set by enable_timing / the real-time loop (see .loop)
+        if not self.rm.is_initialized:
+            from robocourse.bus import DurabilityPolicy, QoSProfile
+            from robocourse.msgs.std_msgs import String
+
+            self.node.create_subscription(String, "robot_description", self._on_robot_description,
+                                          QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+            self.logger.warning("Waiting for data on 'robot_description' topic to finish initialization")
+
+    def _initial_states(self) -> dict:
+        initial = {n: "unconfigured" for n in self.params.hardware_components_initial_state.unconfigured}
+        initial.update({n: "inactive" for n in self.params.hardware_components_initial_state.inactive})
+        return initial
+
+    def _on_robot_description(self, msg) -> None:
+        if self.rm.is_initialized:
+            self.logger.warning("ResourceManager has already loaded a urdf. Ignoring attempt to reload a robot "
+                                "description.")
+            return
+        self.init_resource_manager(msg.data)
+
+    def init_resource_manager(self, urdf: str) -> bool:
+        """Load the hardware from ``urdf`` (what a /robot_description message does); False + log on error.
+
+        Upstream's manager started without a valid description keeps running uninitialised and
+        initialises when a valid one arrives; so does this one.
+        """
+        try:
+            self.rm.load_and_initialize_components(urdf, components=self._components)
+            self.rm.activate_components(self._initial_states())
+        except (ValueError, TypeError, RuntimeError, LookupError) as exc:
+            self.rm.reset()
+            self.logger.error(f"Failed to initialize the resource manager from the robot description: {exc}")
+            return False
+        self.logger.info("Resource Manager has been successfully initialized. Starting Controller Manager services...")
+        return True
 
     # --- the bus node and executor --------------------------------------------------------------------
     @property
@@ -206,6 +239,10 @@ class ControllerManager:
         ``controller=`` passes an instance (a student's class) instead of a pluginlib type.
         Returns the controller, or None with the reason logged (upstream returns nullptr).
         """
+        if not self.rm.is_initialized:
+            self.logger.error("Resource Manager is not initialized yet! Please provide robot description on "
+                              f"'robot_description' topic before trying to load any controller ('{name}').")
+            return None
         if name in self.controllers:
             self.logger.error(f"Controller '{name}' already loaded, skipping load_controller")
             return None

@@ -103,10 +103,26 @@ class ResourceManager:
         if urdf is not None:
             self.load_and_initialize_components(urdf, components=components)
             if activate_all:
-                initial_states = initial_states or {}
-                for name in self.components:
-                    target = as_state(initial_states.get(name, "active"))
-                    self.set_component_state(name, target)
+                self.activate_components(initial_states or {})
+
+    def activate_components(self, initial_states: dict) -> None:
+        """Bring every component to its initial state: ``initial_states[name]`` or ACTIVE (upstream's default)."""
+        for name in self.components:
+            self.set_component_state(name, as_state(initial_states.get(name, "active")))
+
+    def reset(self) -> None:
+        """Forget a partially loaded description (before any controller used it)."""
+        self.components.clear()
+        self._state_map.clear()
+        self._command_map.clear()
+        self._owner.clear()
+        self.available_states.clear()
+        self.available_commands.clear()
+        self.claimed.clear()
+        self.state_values = np.zeros(0)
+        self.command_values = np.zeros(0)
+        self.is_initialized = False
+        self._update_lists()
 
     # --- loading ----------------------------------------------------------------------------------
     def load_and_initialize_components(self, urdf: str, components: dict | None = None) -> None:
