@@ -632,3 +632,19 @@ def test_manager_waits_for_a_valid_robot_description_on_the_topic():
     pub.publish(String(data=valid))
     cm.step(1)
     assert cm.log.count("ResourceManager has already loaded a urdf. Ignoring attempt to reload") == 1
+
+
+def test_cycle_times_plot_has_labelled_axes():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    cm = make_cm()
+    times = cm.enable_timing(50)
+    cm.step(50)
+    fig = times.plot(period_us=10_000)
+    ax, hx = fig.axes
+    assert (ax.get_ylabel(), hx.get_xlabel()) == ("duration [us]", "cycle duration [us]")
+    assert [line.get_label() for line in ax.get_lines()] == ["read", "update", "write", "cycle", "period"]
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)

@@ -60,6 +60,24 @@ class CycleTimes:
         n = min(self.count, self.ns.shape[1])
         return {s: stage_stats(s, self.ns[i, :n]) for i, s in enumerate(STAGES)}
 
+    def plot(self, title: str = "controller manager cycle", period_us: float | None = None):
+        """Figure: each stage's duration per cycle (us) and the cycle-time histogram; returns the figure."""
+        import matplotlib.pyplot as plt
+
+        n = min(self.count, self.ns.shape[1])
+        fig, (ax, hx) = plt.subplots(1, 2, figsize=(11, 3.5), gridspec_kw={"width_ratios": [2, 1]})
+        for i, stage in enumerate(STAGES):
+            ax.plot(self.ns[i, :n] / 1e3, lw=0.8 if stage != "cycle" else 1.2, label=stage)
+        hx.hist(self.ns[3, :n] / 1e3, bins=60, color="tab:red", alpha=0.8)
+        if period_us is not None:
+            ax.axhline(period_us, color="k", ls="--", lw=0.8, label="period")
+            hx.axvline(period_us, color="k", ls="--", lw=0.8)
+        ax.set(xlabel="cycle", ylabel="duration [us]", title=title, yscale="log")
+        ax.legend(loc="upper right", fontsize=8)
+        hx.set(xlabel="cycle duration [us]", ylabel="cycles", title="cycle histogram", yscale="log")
+        fig.tight_layout()
+        return fig
+
     def table(self) -> str:
         head = f"{'stage':<7} {'min us':>9} {'mean us':>9} {'p50 us':>9} {'p99 us':>9} {'max us':>9}"
         return "\n".join([head] + [s.row() for s in self.stats().values()])
