@@ -28,6 +28,28 @@ def as_callback_return(result, who: str, what: str) -> CallbackReturn:
                         "FAILURE or ERROR") from None
 
 
+class LifecycleCallbacks:
+    """The managed-node callbacks with their default (SUCCESS); components and controllers override them."""
+
+    def on_configure(self, previous_state: State) -> CallbackReturn:
+        return CallbackReturn.SUCCESS
+
+    def on_cleanup(self, previous_state: State) -> CallbackReturn:
+        return CallbackReturn.SUCCESS
+
+    def on_shutdown(self, previous_state: State) -> CallbackReturn:
+        return CallbackReturn.SUCCESS
+
+    def on_activate(self, previous_state: State) -> CallbackReturn:
+        return CallbackReturn.SUCCESS
+
+    def on_deactivate(self, previous_state: State) -> CallbackReturn:
+        return CallbackReturn.SUCCESS
+
+    def on_error(self, previous_state: State) -> CallbackReturn:
+        return CallbackReturn.SUCCESS
+
+
 class Lifecycle:
     """Drives ``impl`` through UNCONFIGURED / INACTIVE / ACTIVE / FINALIZED."""
 
@@ -95,4 +117,4 @@ class Lifecycle:
         return self._set(UNCONFIGURED if result is CallbackReturn.SUCCESS else FINALIZED)
 
 
-__all__ = ["ACTIVE", "FINALIZED", "INACTIVE", "UNCONFIGURED", "UNKNOWN", "Lifecycle", "as_callback_return"]
+__all__ = ["Lifecycle", "LifecycleCallbacks", "as_callback_return"]

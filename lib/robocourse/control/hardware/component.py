@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from ..lifecycle import Lifecycle
+from ..lifecycle import Lifecycle, LifecycleCallbacks
 from .info import HardwareInfo
 from .types import UNKNOWN, CallbackReturn, State, return_type
 
@@ -47,7 +47,7 @@ class InterfaceDescription:
         return f"InterfaceDescription({self.name!r})"
 
 
-class HardwareComponentInterface:
+class HardwareComponentInterface(LifecycleCallbacks):
     """Base of the three kinds: the callbacks a student overrides.
 
     Override ``on_init(info)`` (call ``super().on_init(info)`` first), ``on_configure``,
@@ -72,27 +72,9 @@ class HardwareComponentInterface:
         self._lifecycle_state = UNKNOWN
         self._logger = None
 
-    # --- lifecycle callbacks (override) -------------------------------------------------------
+    # --- lifecycle callbacks (override; on_configure .. on_error default to SUCCESS) ---------------
     def on_init(self, info: HardwareInfo) -> CallbackReturn:
         self.info = info
-        return CallbackReturn.SUCCESS
-
-    def on_configure(self, previous_state: State) -> CallbackReturn:
-        return CallbackReturn.SUCCESS
-
-    def on_cleanup(self, previous_state: State) -> CallbackReturn:
-        return CallbackReturn.SUCCESS
-
-    def on_shutdown(self, previous_state: State) -> CallbackReturn:
-        return CallbackReturn.SUCCESS
-
-    def on_activate(self, previous_state: State) -> CallbackReturn:
-        return CallbackReturn.SUCCESS
-
-    def on_deactivate(self, previous_state: State) -> CallbackReturn:
-        return CallbackReturn.SUCCESS
-
-    def on_error(self, previous_state: State) -> CallbackReturn:
         return CallbackReturn.SUCCESS
 
     # --- interfaces ---------------------------------------------------------------------------

@@ -27,6 +27,7 @@ from enum import IntEnum
 import numpy as np
 
 from ..hardware.types import UNKNOWN, CallbackReturn, State, return_type
+from ..lifecycle import LifecycleCallbacks
 from ..parameters import ParameterSchema, ParamListener
 
 
@@ -44,7 +45,7 @@ class InterfaceConfiguration:
     names: list[str] = field(default_factory=list)
 
 
-class ControllerInterface:
+class ControllerInterface(LifecycleCallbacks):
     """Subclass and override the callbacks; the manager calls them (never call them yourself)."""
 
     #: generate_parameter_library-style schema of this controller's parameters (or None).
@@ -96,24 +97,6 @@ class ControllerInterface:
 
     # --- override these ---------------------------------------------------------------------------
     def on_init(self) -> CallbackReturn:
-        return CallbackReturn.SUCCESS
-
-    def on_configure(self, previous_state: State) -> CallbackReturn:
-        return CallbackReturn.SUCCESS
-
-    def on_activate(self, previous_state: State) -> CallbackReturn:
-        return CallbackReturn.SUCCESS
-
-    def on_deactivate(self, previous_state: State) -> CallbackReturn:
-        return CallbackReturn.SUCCESS
-
-    def on_cleanup(self, previous_state: State) -> CallbackReturn:
-        return CallbackReturn.SUCCESS
-
-    def on_error(self, previous_state: State) -> CallbackReturn:
-        return CallbackReturn.SUCCESS
-
-    def on_shutdown(self, previous_state: State) -> CallbackReturn:
         return CallbackReturn.SUCCESS
 
     def command_interface_configuration(self) -> InterfaceConfiguration:
