@@ -482,3 +482,11 @@ def test_async_components_are_refused_clearly():
     text = urdf(generic(body=STANDARD_2DOF)).replace('type="system"', 'type="system" is_async="true"')
     with pytest.raises(URDFError, match='is_async="true" on <ros2_control name="GenericSystem2dof"> is not supported'):
         ResourceManager(text, log=quiet())
+
+
+def test_unknown_actuator_plugin_names_the_actuator_base_class():
+    block = ('<ros2_control name="A" type="actuator"><hardware><plugin>my_robot/NoActuator</plugin></hardware>'
+             + joint("joint1", ("position",), ("position",)) + "</ros2_control>")
+    with pytest.raises(URDFError, match="the class my_robot/NoActuator with base class type "
+                                        "hardware_interface::ActuatorInterface does not exist"):
+        ResourceManager(urdf(block), log=quiet())

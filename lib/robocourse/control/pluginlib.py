@@ -59,13 +59,13 @@ def declared(base: str) -> list[str]:
     return sorted(_DECLARED[base])
 
 
-def load(name: str, base: str) -> type:
-    """The class declared as ``name`` for ``base``, or pluginlib's error."""
+def load(name: str, base: str, base_label: str | None = None) -> type:
+    """The class declared as ``name`` for ``base``, or pluginlib's error (naming ``base_label`` if given)."""
     entry = _DECLARED[base].get(name)
     if entry is None:
         raise PluginlibException(
-            f"According to the loaded plugin descriptions the class {name} with base class type {base} "
-            f"does not exist. Declared types are  {' '.join(declared(base))}")
+            f"According to the loaded plugin descriptions the class {name} with base class type "
+            f"{base_label or base} does not exist. Declared types are  {' '.join(declared(base))}")
     if isinstance(entry, str):
         module, _, attr = entry.partition(":")
         entry = getattr(importlib.import_module(module), attr)

@@ -142,7 +142,8 @@ class ResourceManager:
             impl = components.get(info.name)
             if impl is None:
                 try:
-                    cls = pluginlib.load(info.hardware_plugin_name, pluginlib.HARDWARE_BASE)
+                    cls = pluginlib.load(info.hardware_plugin_name, pluginlib.HARDWARE_BASE,
+                                         f"hardware_interface::{info.type.capitalize()}Interface")
                 except pluginlib.PluginlibException as exc:
                     raise URDFError(str(exc), info.plugin_line,
                                     f"use a declared plugin name, or register your class first: "
