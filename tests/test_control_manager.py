@@ -648,3 +648,52 @@ def test_cycle_times_plot_has_labelled_axes():
     import matplotlib.pyplot as plt
 
     plt.close(fig)
+
+
+# --- interface configurations and exported state interfaces -------------------------------------------------
+class AllCommands(TestController):
+    __test__ = False
+
+    def command_interface_configuration(self):
+        from robocourse.control import InterfaceConfiguration, interface_configuration_type
+
+        return InterfaceConfiguration(interface_configuration_type.ALL)
+
+    def state_interface_configuration(self):
+        from robocourse.control import InterfaceConfiguration, interface_configuration_type
+
+        return InterfaceConfiguration(interface_configuration_type.NONE)
+
+
+def test_all_configuration_claims_every_hardware_command_interface_and_none_claims_nothing():
+    cm = make_cm()
+    c = add(cm, "all", AllCommands())
+    assert cm.switch_controller(["all"], [], STRICT) == return_type.OK
+    assert [loan.name for loan in c.command_interfaces] == [P1, V1, P2, V2] and c.state_interfaces == []
+    assert sorted(cm.rm.claimed) == sorted([P1, V1, P2, V2])
+
+
+class Estimator(TestChainable):
+    """Exports a state interface ``<name>/joint1/estimate`` = measured position * 2."""
+
+    __test__ = False
+
+    def on_export_state_interfaces(self):
+        return ["joint1/estimate"]
+
+    def update_and_write_commands(self, time, period):
+        self.exported_state_interfaces[0] = 2.0 * self.state_interfaces[0].get_value()
+        return return_type.OK
+
+
+def test_exported_state_interfaces_are_read_by_later_controllers():
+    cm = make_cm()
+    reader = add(cm, "reader", TestController([P2], ["estimator/joint1/estimate"]))
+    est = add(cm, "estimator", Estimator([], [P1]))
+    assert cm.ordered_controllers() == ["estimator", "reader"]            # the exporter updates first
+    assert cm.switch_controller(["reader"], [], STRICT) == return_type.ERROR
+    assert "state interface 'estimator/joint1/estimate' is not available" in cm.last_switch_message
+    assert cm.switch_controller(["reader", "estimator"], [], STRICT) == return_type.OK
+    cm.step(1)
+    assert reader.state_interfaces[0].get_value() == pytest.approx(2 * 3.45)
+    assert est.from_subscribers == 1 and not est.is_in_chained_mode()   # read, not chained
