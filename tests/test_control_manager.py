@@ -697,3 +697,17 @@ def test_exported_state_interfaces_are_read_by_later_controllers():
     cm.step(1)
     assert reader.state_interfaces[0].get_value() == pytest.approx(2 * 3.45)
     assert est.from_subscribers == 1 and not est.is_in_chained_mode()   # read, not chained
+
+
+def test_interface_configuration_that_raises_fails_the_switch_not_the_manager():
+    class Broken(TestController):
+        __test__ = False
+
+        def command_interface_configuration(self):
+            raise KeyError("joints")
+
+    cm = make_cm()
+    add(cm, "b", Broken())
+    assert cm.switch_controller(["b"], [], STRICT) == return_type.ERROR
+    assert "Unable to activate controller 'b': its interface configuration raised KeyError('joints')" in \
+        cm.last_switch_message

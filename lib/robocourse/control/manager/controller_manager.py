@@ -604,7 +604,10 @@ class ControllerManager:
             becoming.update(self.rm.controller_interfaces(n)[0] + self.rm.controller_interfaces(n)[1])
         wanted: dict[str, str] = {}
         for n in activate:
-            cmds, states = self.required_interfaces(self.controllers[n])
+            try:
+                cmds, states = self.required_interfaces(self.controllers[n])
+            except Exception as exc:  # noqa: BLE001 - a student's configuration method may raise
+                return f"Unable to activate controller '{n}': its interface configuration raised {exc!r}"
             for k in cmds:
                 if not self.rm.command_interface_exists(k) or (
                         not self.rm.command_interface_is_available(k) and k not in becoming):
