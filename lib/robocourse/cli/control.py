@@ -1,0 +1,106 @@
+"""``robocourse control ...``: the ``ros2 control`` verbs and the spawner, on a robot brought up in-process.
+
+ROS 2's verbs talk to a controller manager that already runs; robocourse's bus lives in one
+process, so each command first brings the robot up (``--robot``/``--urdf``, ``--plugin``,
+``--controllers-file``, ``--spawn``/``--spawn-inactive`` as a launch file would), runs a few cycles,
+then performs the verb through the manager's services and prints what ``ros2 control`` prints.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+VERBS = ("list_controllers", "list_hardware_interfaces", "list_hardware_components", "switch_controllers",
+         "load_controller", "set_hardware_component_state", "spawner", "view")
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("bring-up (what the launch file would start)")
+    g.add_argument("--robot", default="rrbot", choices=("rrbot", "ur5e"), help="shipped robot (default rrbot)")
+    g.add_argument("--urdf", help="your own URDF file instead of a shipped robot")
+    g.add_argument("--plugin", help="hardware plugin for the shipped robot (default mock_components/GenericSystem; "
+                                    "robocourse/MujocoSystem simulates it)")
+    g.add_argument("--controllers-file", dest="bringup_params", help="controller_manager parameter file "
+                                                               "(default: the robot's shipped one)")
+    g.add_argument("--spawn", nargs="*", default=[], metavar="NAME", help="controllers to load and activate first")
+    g.add_argument("--spawn-inactive", nargs="*", default=[], metavar="NAME",
+                   help="controllers to load and configure first")
+    g.add_argument("--cycles", type=int, default=10, help="manager cycles to run before the verb (default 10)")
+
+
+def register(sub) -> None:
+    p = sub.add_parser("control", help="ros2 control's verbs and the spawner (ros2_control in Python)")
+    s = p.add_subparsers(dest="control_command", metavar="VERB")
+    v = s.add_parser("list_controllers", help="output the list of loaded controllers, their type and status")
+    v.add_argument("-v", "--verbose", action="store_true")
+    v = s.add_parser("list_hardware_interfaces", help="output the list of available command and state interfaces")
+    v.add_argument("-v", "--verbose", action="store_true")
+    v = s.add_parser("list_hardware_components", help="output the list of hardware components")
+    v.add_argument("-v", "--verbose", action="store_true")
+    v = s.add_parser("switch_controllers", help="switch controllers in a controller manager")
+    v.add_argument("--activate", nargs="*", default=[])
+    v.add_argument("--deactivate", nargs="*", default=[])
+    v.add_argument("--strict", action="store_true")
+    v.add_argument("--activate-asap", action="store_true")
+    v.add_argument("--switch-timeout", type=float, default=5.0)
+    v = s.add_parser("load_controller", help="load a controller in a controller manager")
+    v.add_argument("controller_name")
+    v.add_argument("--set-state", choices=("inactive", "active"))
+    v = s.add_parser("set_hardware_component_state", help="adjust the state of the hardware component")
+    v.add_argument("hardware_component_name")
+    v.add_argument("state", choices=("unconfigured", "inactive", "active"))
+    v = s.add_parser("spawner", help="load, configure and activate controllers (controller_manager spawner)")
+    v.add_argument("controller_names", nargs="+")
+    v.add_argument("--inactive", action="store_true", help="load and configure only")
+    v.add_argument("-p", "--param-file", help="controller parameter file")
+    v.add_argument("-t", "--controller-type")
+    v.add_argument("--activate-as-group", action="store_true")
+    v = s.add_parser("view", help="write an SVG picture of the system (components, interfaces, controllers, claims)")
+    v.add_argument("output", help="file to write, e.g. system.svg")
+    for verb in s.choices.values():
+        _common(verb)
+        verb.set_defaults(func=run)
+    p.set_defaults(func=lambda args: p.print_help() or 2)
+
+
+def run(args) -> int:
+    from pathlib import Path
+
+    from robocourse.control import introspection as ic
+    from robocourse.control.bringup import bringup
+    from robocourse.control.log import LogSink
+
+    urdf = Path(args.urdf).read_text() if args.urdf else None
+    cm = bringup(args.robot, urdf=urdf, plugin=args.plugin, param_file=args.bringup_params, spawn=args.spawn,
+                 inactive=args.spawn_inactive, log=LogSink(log_to_stderr=False))
+    cm.step(max(0, args.cycles))
+    verb = args.control_command
+    ok = True
+    if verb == "list_controllers":
+        ic.list_controllers(cm, verbose=args.verbose)
+    elif verb == "list_hardware_interfaces":
+        ic.list_hardware_interfaces(cm, verbose=args.verbose)
+    elif verb == "list_hardware_components":
+        ic.list_hardware_components(cm, verbose=args.verbose)
+    elif verb == "switch_controllers":
+        ok = ic.switch_controllers(cm, args.activate, args.deactivate, args.strict, args.activate_asap,
+                                   args.switch_timeout)
+    elif verb == "load_controller":
+        ok = ic.load_controller(cm, args.controller_name, args.set_state)
+    elif verb == "set_hardware_component_state":
+        ok = ic.set_hardware_component_state(cm, args.hardware_component_name, args.state)
+    elif verb == "spawner":
+        ok = ic.spawner(cm, args.controller_names, inactive=args.inactive, param_file=args.param_file,
+                        controller_type=args.controller_type, activate_as_group=args.activate_as_group)
+    elif verb == "view":
+        from robocourse.control.picture import system_picture
+
+        system_picture(cm).save(args.output)
+        print(f"wrote {args.output}")
+    if not ok:
+        import sys
+
+        for rec in cm.log.records:
+            if rec.severity >= 40:
+                print(str(rec), file=sys.stderr)
+    return 0 if ok else 1
