@@ -24,6 +24,14 @@ from pathlib import Path
 import psutil
 import pytest
 
+from robocourse.cli.lab import (
+    OVERRIDES,
+    check_overrides_against_schemas,
+    default_workspace,
+    workspaces_dir,
+    write_default_workspace,
+)
+
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 NOTIFICATION = "@jupyterlab/apputils-extension:notification"
 NEWS_PROMPT = "official Jupyter news"
@@ -76,8 +84,11 @@ def lab(tmp_path_factory):
     root = Path(__file__).resolve().parents[1]
     tmp = tmp_path_factory.mktemp("lab")
     port, token = _free_port(), "robocourse-test"
+    # the layout a student saved in the venv must not decide what this test sees either: the
+    # lab gets a fresh workspaces folder holding the course's default layout
+    write_default_workspace(tmp / "workspaces", root)
     flags = (f"--no-browser --port={port} --ServerApp.port_retries=0 --IdentityProvider.token={token} "
-             f"--ServerApp.ip=127.0.0.1 --ServerApp.allow_root=True")
+             f"--ServerApp.ip=127.0.0.1 --ServerApp.allow_root=True --LabApp.workspaces_dir={tmp / 'workspaces'}")
     # the student's own JupyterLab preferences (~/.jupyter) must not decide what this test sees
     env = dict(os.environ, JUPYTER_RUNTIME_DIR=str(tmp / "runtime"), JUPYTERLAB_SETTINGS_DIR=str(tmp / "user-settings"))
     proc = subprocess.Popen(["make", "-s", "lab", f"LAB_FLAGS={flags}"], cwd=root, env=env,
@@ -152,6 +163,33 @@ def test_lab_default_workspace_opens_chapter_0_beside_its_exercise(lab):
     opened = [w for area in dock.get("children", [dock]) for w in area["widgets"]]
     assert opened == ["notebook:chapters/00_setup_check.ipynb", "notebook:exercises/00_setup_exercises.ipynb"]
     assert space["file-browser-filebrowser:cwd"]["path"] == ""
+    assert space == default_workspace(Path(__file__).resolve().parents[1])["data"]
+
+
+def test_make_lab_wrote_the_default_layout_into_the_venv_once(lab, root, tmp_path):
+    from jupyterlab_server.workspaces_handler import WorkspacesManager
+
+    venv = WorkspacesManager(str(workspaces_dir(root / ".venv"))).load("default")["data"]
+    assert "layout-restorer:data" in venv  # the course's, or the student's own once rearranged
+    mine = {"data": {"file-browser-filebrowser:cwd": {"path": "chapters"}}, "metadata": {"id": "/default"}}
+    WorkspacesManager(str(tmp_path)).save("default", json.dumps(mine))
+    assert write_default_workspace(tmp_path, root) is None  # a saved layout is kept
+    assert WorkspacesManager(str(tmp_path)).load("default")["data"] == mine["data"]
+    assert write_default_workspace(tmp_path, root, reset=True) is not None
+    assert WorkspacesManager(str(tmp_path)).load("default")["data"] == default_workspace(root)["data"]
+
+
+def test_overrides_are_checked_against_the_installed_jupyterlab_schemas(root):
+    venv = root / ".venv"
+    check_overrides_against_schemas(venv, OVERRIDES)  # what make lab writes is valid for this JupyterLab
+    with pytest.raises(KeyError, match="has no setting 'fetchNewz'.*'fetchNews'"):
+        check_overrides_against_schemas(venv, {NOTIFICATION: {"fetchNewz": "false"}})
+    with pytest.raises(KeyError, match="plugin '@jupyterlab/apputils-extension:news' not found"):
+        check_overrides_against_schemas(venv, {"@jupyterlab/apputils-extension:news": {"fetchNews": "false"}})
+    with pytest.raises(ValueError, match=r"fetchNews=False is not a value.*\['true', 'false', 'none'\]"):
+        check_overrides_against_schemas(venv, {NOTIFICATION: {"fetchNews": False}})
+    with pytest.raises(FileNotFoundError, match="run `make setup` first"):
+        check_overrides_against_schemas(root / "no-such-venv", OVERRIDES)
 
 
 class Page:

@@ -96,10 +96,15 @@ def check_overrides_against_schemas(prefix: Path, overrides: dict = OVERRIDES) -
             raise KeyError(f"setting plugin {plugin!r} not found ({schema_file} missing): "
                            "this JupyterLab renamed it; update robocourse.cli.lab.OVERRIDES")
         properties = json.loads(schema_file.read_text(encoding="utf-8"))["properties"]
-        for key in values:
+        for key, value in values.items():
             if key not in properties:
                 raise KeyError(f"{plugin} has no setting {key!r} (it has {sorted(properties)}); "
                                "update robocourse.cli.lab.OVERRIDES")
+            allowed = [c["const"] for c in properties[key].get("oneOf", []) if "const" in c]
+            kind = {"boolean": bool, "string": str}.get(properties[key].get("type"))
+            if (allowed and value not in allowed) or (kind and not isinstance(value, kind)):
+                raise ValueError(f"{plugin}: {key}={value!r} is not a value this JupyterLab accepts "
+                                 f"({allowed or properties[key].get('type')}); update robocourse.cli.lab.OVERRIDES")
 
 
 def _write_json(path: Path, data: dict) -> Path:
@@ -108,14 +113,26 @@ def _write_json(path: Path, data: dict) -> Path:
     return path
 
 
+def write_default_workspace(folder: Path, root: Path, reset: bool = False) -> Path | None:
+    """Save the course's ``default`` workspace in ``folder`` unless one is there (or ``reset``)."""
+    from jupyterlab_server.workspaces_handler import WorkspacesManager
+
+    manager = WorkspacesManager(str(folder))
+    try:
+        have_default = bool(manager.load("default")["data"])  # {} when there is none yet
+    except ValueError:  # an unreadable saved layout: replace it
+        have_default = False
+    if reset or not have_default:
+        return manager.save("default", json.dumps(default_workspace(Path(root))))
+    return None
+
+
 def write_settings(root: Path | str = ".", prefix: Path | str = sys.prefix, reset_workspace: bool = False) -> list[Path]:
     """Write the lab settings into ``prefix``; return the files written.
 
     The default workspace is written only when missing (or with ``reset_workspace``): once the
     student rearranges the lab, JupyterLab saves their layout in the same file and it is kept.
     """
-    from jupyterlab_server.workspaces_handler import WorkspacesManager
-
     root, prefix = Path(root), Path(prefix)
     check_overrides_against_schemas(prefix)
     overrides = overrides_path(prefix)
@@ -123,14 +140,8 @@ def write_settings(root: Path | str = ".", prefix: Path | str = sys.prefix, rese
     for plugin, values in OVERRIDES.items():
         existing.setdefault(plugin, {}).update(values)
     written = [_write_json(overrides, existing), _write_json(server_config_path(prefix), server_config(root, prefix))]
-    manager = WorkspacesManager(workspaces_dir(prefix))
-    try:
-        have_default = bool(manager.load("default")["data"])  # {} when there is none yet
-    except ValueError:  # an unreadable saved layout: replace it
-        have_default = False
-    if reset_workspace or not have_default:
-        written.append(manager.save("default", json.dumps(default_workspace(root))))
-    return written
+    workspace = write_default_workspace(workspaces_dir(prefix), root, reset_workspace)
+    return written + ([workspace] if workspace else [])
 
 
 def register(sub):
