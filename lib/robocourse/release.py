@@ -257,8 +257,8 @@ def find_leaks(files: Mapping[str, bytes], blocks: Iterable[Block]) -> list[Leak
 
     A file contains a block when it holds more than half of the block's significant lines (all of
     it, for a one-line block) or two of them on consecutive lines. A single shared line is not
-    enough: ``self.integral = 0.0`` or ``lat = np.asarray(latency_ns, dtype=np.int64)`` also
-    appear in the library's own code the chapters teach.
+    enough: an attribute set to zero in a constructor, or an array conversion, also appears in the
+    library's own code that the chapters teach.
     """
     blocks = [b for b in blocks if b.lines]
     leaks = []
@@ -320,6 +320,7 @@ def edition_readme(text: str, present_dirs: set[str]) -> str:
     sections and ``<!-- instructor-only -->`` spans removed, and layout lines naming a folder
     the edition does not have (``solutions/``) dropped."""
     head, sections = _sections(text)
+    sections = [(h, body if body.endswith("\n\n") else body.rstrip("\n") + "\n\n") for h, body in sections]
     students = [s for h, s in sections if h[3:].lower().startswith("for students")]
     if not students:
         raise ValueError("README.md has no '## For students' section: the student edition opens with it; "
@@ -404,7 +405,7 @@ def plan(root: Path | str = ".", manifest: Iterable[Rule] = MANIFEST,
                          + "; add an exclude rule for it to robocourse.release.MANIFEST")
     sel.files[MARKER_FILE] = (json.dumps({
         "built_by": "robocourse release", "source_commit": _source_commit(root),
-        "files": sorted(sel.files)}, indent=1) + "\n").encode()
+        "files": sorted([*sel.files, MARKER_FILE])}, indent=1) + "\n").encode()
     return Edition(Path(), sel.files, sel.left_out_summary(), [], known)
 
 
