@@ -65,12 +65,14 @@ class Lab:
         return json.loads(raw) if raw else None
 
 
-def _lab_processes(pgid: int, runtime: Path) -> list[psutil.Process]:
-    """The lab's processes: make's group (make, jupyter server) and any kernel using our runtime dir."""
+def _processes_using(marker: str, pgid: int | None = None) -> list[psutil.Process]:
+    """Live processes whose command line names ``marker`` (or in process group ``pgid``)."""
     found = []
-    for p in psutil.process_iter(["pid", "cmdline"]):
+    for p in psutil.process_iter(["pid", "cmdline", "status"]):
         try:
-            if os.getpgid(p.pid) == pgid or str(runtime) in " ".join(p.info["cmdline"] or []):
+            if p.info["status"] == psutil.STATUS_ZOMBIE:
+                continue
+            if os.getpgid(p.pid) == pgid or marker in " ".join(p.info["cmdline"] or []):
                 found.append(p)
         except (ProcessLookupError, psutil.Error):
             continue
@@ -115,7 +117,7 @@ def lab(tmp_path_factory):
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
         deadline = time.monotonic() + 30
-        while (left := _lab_processes(proc.pid, tmp / "runtime")) and time.monotonic() < deadline:
+        while (left := _processes_using(str(tmp / "runtime"), pgid=proc.pid)) and time.monotonic() < deadline:
             time.sleep(0.5)
         for p in left:
             p.kill()
@@ -262,6 +264,12 @@ def browser(tmp_path):
         except subprocess.TimeoutExpired:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
+        deadline = time.monotonic() + 20
+        while (left := _processes_using(str(profile))) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        for p in left:
+            p.kill()
+        assert not left, f"Chromium processes outlived the test: {[p.pid for p in left]}"
 
 
 def _lab_shown(state: dict) -> bool:
