@@ -29,6 +29,7 @@ import shutil
 import subprocess
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from functools import cache
 from pathlib import Path
 
 from robocourse.grading import exercises
@@ -97,6 +98,7 @@ MANIFEST: tuple[Rule, ...] = (
 )
 
 
+@cache
 def _glob_regex(pattern: str) -> re.Pattern:
     out, i = [], 0
     while i < len(pattern):
