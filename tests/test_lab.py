@@ -89,6 +89,10 @@ def lab(tmp_path_factory):
     # the layout a student saved in the venv must not decide what this test sees either: the
     # lab gets a fresh workspaces folder holding the course's default layout
     write_default_workspace(tmp / "workspaces", root)
+    # and the browser test must never write the course's notebooks (JupyterLab autosaves every 2 min)
+    docmanager = tmp / "user-settings/@jupyterlab/docmanager-extension/plugin.jupyterlab-settings"
+    docmanager.parent.mkdir(parents=True)
+    docmanager.write_text(json.dumps({"autosave": False}))
     flags = (f"--no-browser --port={port} --ServerApp.port_retries=0 --IdentityProvider.token={token} "
              f"--ServerApp.ip=127.0.0.1 --ServerApp.allow_root=True --LabApp.workspaces_dir={tmp / 'workspaces'}")
     # the student's own JupyterLab preferences (~/.jupyter) must not decide what this test sees
