@@ -10,12 +10,14 @@ Set ``ROBOCOURSE_LAB_SCREENSHOT=/some/file.png`` to keep the screenshot the brow
 from __future__ import annotations
 
 import base64
+import contextlib
 import json
 import os
 import shutil
 import signal
 import socket
 import subprocess
+import sys
 import time
 import urllib.request
 from dataclasses import dataclass
@@ -79,6 +81,27 @@ def _processes_using(marker: str, pgid: int | None = None) -> list[psutil.Proces
     return found
 
 
+def _stop(proc: subprocess.Popen, marker: str, pgid: int | None = None, timeout: float = 30) -> list:
+    """SIGTERM the process group of ``proc`` (SIGKILL if it lingers), then wait for every process
+    naming ``marker`` to end; kill and return (pid, command line) of those that did not."""
+    os.killpg(proc.pid, signal.SIGTERM)
+    try:
+        proc.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    deadline = time.monotonic() + timeout
+    while (left := _processes_using(marker, pgid)) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    stragglers = []
+    for p in left:
+        with contextlib.suppress(psutil.Error):
+            stragglers.append((p.pid, p.cmdline()))
+            p.kill()
+    psutil.wait_procs(left, timeout=5)
+    return stragglers
+
+
 @pytest.fixture(scope="module")
 def lab(tmp_path_factory):
     if shutil.which("make") is None:
@@ -113,19 +136,9 @@ def lab(tmp_path_factory):
             os.killpg(proc.pid, signal.SIGKILL)
             pytest.fail(f"JupyterLab did not answer on port {port}: {proc.stdout.read1(5000)!r}")
         yield server
-    finally:
-        os.killpg(proc.pid, signal.SIGTERM)  # make and the server; the server shuts its kernels down
-        try:
-            proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
-        deadline = time.monotonic() + 30
-        while (left := _processes_using(str(tmp / "runtime"), pgid=proc.pid)) and time.monotonic() < deadline:
-            time.sleep(0.5)
-        for p in left:
-            p.kill()
-        assert not left, f"processes of the lab outlived it: {[(p.pid, p.cmdline()) for p in left]}"
+    finally:  # make and the server; the server shuts its kernels down (they use our runtime dir)
+        left = _stop(proc, str(tmp / "runtime"), pgid=proc.pid)
+        assert not left, f"processes of the lab outlived it: {left}"
 
 
 def test_lab_serves_a_chapter_and_an_exercise_notebook(lab):
@@ -262,18 +275,8 @@ def browser(tmp_path):
         yield page
         page.ws.close()
     finally:
-        os.killpg(proc.pid, signal.SIGTERM)
-        try:
-            proc.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
-        deadline = time.monotonic() + 20
-        while (left := _processes_using(str(profile))) and time.monotonic() < deadline:
-            time.sleep(0.2)
-        for p in left:
-            p.kill()
-        assert not left, f"Chromium processes outlived the test: {[p.pid for p in left]}"
+        left = _stop(proc, str(profile))
+        assert not left, f"Chromium processes outlived the test: {left}"
 
 
 def _lab_shown(state: dict) -> bool:
@@ -308,3 +311,17 @@ def test_chromium_shows_both_folders_and_no_news_prompt(lab, browser, tmp_path):
     assert any(NEWS_PROMPT in t for t in state["toasts"])
     assert delay < watch, f"the prompt took {delay:.1f} s after the layout showed; watch longer than {watch} s"
     assert (lab.user_settings / "@jupyterlab/apputils-extension/notification.jupyterlab-settings").is_file()
+
+
+@pytest.mark.skipif(shutil.which("setsid") is None, reason="setsid (util-linux) is not installed")
+def test_stop_reports_and_kills_a_process_that_escaped_the_group(tmp_path):
+    marker = str(tmp_path / "escaped-marker")
+    code = "import time; time.sleep(60)"
+    proc = subprocess.Popen(["sh", "-c", f'setsid {sys.executable} -c "{code}" {marker} & exec sleep 60'],
+                            start_new_session=True)
+    deadline = time.monotonic() + 10
+    while not _processes_using(marker) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    left = _stop(proc, marker, pgid=proc.pid, timeout=2)
+    assert len(left) == 1 and marker in " ".join(left[0][1])  # found, named, and killed
+    assert not psutil.pid_exists(left[0][0]) or psutil.Process(left[0][0]).status() == psutil.STATUS_ZOMBIE
