@@ -1,5 +1,6 @@
 # robocourse: the two commands a student needs.
-#   make lab   - set up .venv (first time only) and open JupyterLab on chapters/
+#   make lab   - set up .venv (first time only) and open JupyterLab on the course folder:
+#                chapters/ and exercises/ side by side, the robocourse kernel as default
 #   make test  - same set-up, then the whole suite (unit tests + every notebook)
 # Both are idempotent: the venv is rebuilt only when requirements.txt or pyproject.toml change.
 
@@ -9,6 +10,8 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.robocourse-installed
 KERNEL := robocourse
 LAB_FLAGS ?=
+# the lab's settings live in the venv, never in your home (robocourse/cli/lab.py says what each does)
+LAB_CONF := $(VENV)/etc/jupyter/jupyter_server_config.json
 PYTEST_FLAGS ?=
 
 .PHONY: lab test setup kernel exercises lint clean
@@ -27,8 +30,11 @@ $(STAMP): requirements.txt pyproject.toml
 
 kernel: $(STAMP)
 
-lab: $(STAMP)
-	$(VENV)/bin/jupyter lab --notebook-dir=chapters $(LAB_FLAGS)
+$(LAB_CONF): $(STAMP) lib/robocourse/cli/lab.py
+	$(VENV)/bin/robocourse lab-settings --root . --prefix $(VENV) > /dev/null
+
+lab: $(LAB_CONF)
+	$(VENV)/bin/jupyter lab $(LAB_FLAGS)
 
 test: $(STAMP)
 	$(PY) -X faulthandler -m pytest $(PYTEST_FLAGS)
