@@ -1,0 +1,767 @@
+"""A Python EtherCAT master following SOEM's bring-up, with pysoem's API.
+
+``Master`` mirrors ``pysoem.Master`` (open, config_init, config_map, config_dc, state_check,
+read_state, write_state, send_processdata, receive_processdata -> working counter,
+expected_wkc, slaves) and ``Slave`` mirrors ``pysoem.CdefSlave`` (name, man, id, rev,
+state, al_status, input, output, write_state, state_check, dc_sync, sdo_read/sdo_write).
+The datagrams are SOEM v1.4.0's, in its order (ecx_detect_slaves, ecx_set_slaves_to_default,
+the per-slave SII reads, ecx_config_map_group's SM/FMMU writes, ecx_configdc), so a capture
+of ours reads like a capture of SOEM.
+
+Where we differ: no CoE mailbox (our slaves carry their PDO layout in the SII, so
+``sdo_read``/``sdo_write`` refuse with ``MailboxError``); one group; segments split at slave
+boundaries; ``check()`` returns SOEM simple_test's ecatcheck messages instead of printing them.
+For a ros2_control adapter, ``Slave.output``/``Slave.input`` are the slave's slices of the
+process image and ``pdo_layout()`` names the offset of every mapped object (0x6040, 0x6041...).
+"""
+
+from __future__ import annotations
+
+import struct
+import time
+from dataclasses import dataclass, field
+
+from .bus import Bus
+from .dc import line_delays
+from .esc import (
+    AL_ERROR,
+    AL_STATUS_TEXT,
+    INIT,
+    OP,
+    PREOP,
+    REG_ALCTL,
+    REG_ALSTAT,
+    REG_DCCYCLE0,
+    REG_DCSOF,
+    REG_DCSTART0,
+    REG_DCSYNCACT,
+    REG_DCSYSDELAY,
+    REG_DCSYSOFFSET,
+    REG_DCSYSTIME,
+    REG_DCTIME0,
+    REG_DLSTAT,
+    REG_EEPCFG,
+    REG_EEPCTL,
+    REG_EEPDAT,
+    REG_ESCSUP,
+    REG_FMMU0,
+    REG_PDICTL,
+    REG_PORTDES,
+    REG_SM0,
+    REG_STADR,
+    SAFEOP,
+    STATE_NAMES,
+)
+from .frames import Command, Datagram, FrameError, datagram, decode_frame, frame_bytes
+from .sii import SM_TYPE_INPUTS, SM_TYPE_OUTPUTS, Pdo, SiiInfo, parse_categories, parse_header
+from .transport import InProcess, RawSocket
+
+NONE_STATE = 0x00
+EC_NODEOFFSET = 0x1000
+EC_NOFRAME = -1
+MAX_LRW_DATA = 1466  # EC_MAXLRWDATA - EC_FIRSTDCDATAGRAM
+EPOCH_2000_S = 946684800
+_U16, _U32, _U64 = struct.Struct("<H"), struct.Struct("<I"), struct.Struct("<Q")
+
+
+class MasterError(RuntimeError):
+    """A bring-up step that failed; the message names the slave, the step and the value."""
+
+
+class MailboxError(MasterError):
+    """An SDO request to a slave without a mailbox (SII word 0x0019 mailbox size 0)."""
+
+
+class SiiError(MasterError):
+    """The SII EEPROM refused a read (word out of range, or the interface stayed busy)."""
+
+
+@dataclass
+class Fmmu:
+    log_start: int
+    log_length: int
+    log_startbit: int
+    log_endbit: int
+    phys_start: int
+    fmmu_type: int
+
+    def pack(self) -> bytes:
+        return struct.pack("<IHBBHBBBxH", self.log_start, self.log_length, self.log_startbit,
+                           self.log_endbit, self.phys_start, 0, self.fmmu_type, 1, 0)
+
+
+@dataclass
+class Slave:
+    """One slave as the master knows it (SOEM's ``ec_slavet``; pysoem's ``CdefSlave``)."""
+
+    master: Master = field(repr=False)
+    position: int
+    config_address: int = 0
+    alias: int = 0
+    itype: int = 0
+    sii: SiiInfo = field(default_factory=SiiInfo)
+    eep_8byte: bool = False
+    eep_pdi: bool = False
+    has_dc: bool = False
+    dl_status: int = 0
+    ptype: int = 0
+    topology: int = 0
+    active_ports: int = 0
+    parent: int = 0
+    state: int = NONE_STATE
+    al_status: int = 0
+    al_status_code: int = 0
+    sm: list[tuple[int, int, int]] = field(default_factory=list)  # start, length, flags
+    sm_type: list[int] = field(default_factory=list)
+    obits: int = 0
+    ibits: int = 0
+    obytes: int = 0
+    ibytes: int = 0
+    out_offset: int = 0
+    in_offset: int = 0
+    fmmus: list[Fmmu] = field(default_factory=list)
+    is_lost: bool = False
+    dc_delay: int = 0
+    dc_port_times: tuple[int, int | None] = (0, None)
+
+    # identity, as pysoem names it
+    @property
+    def name(self) -> str:
+        return self.sii.name
+
+    @property
+    def man(self) -> int:
+        return self.sii.vendor_id
+
+    @property
+    def id(self) -> int:
+        return self.sii.product_code
+
+    @property
+    def rev(self) -> int:
+        return self.sii.revision
+
+    @property
+    def output(self) -> bytes:
+        return bytes(self.master.io_map[self.out_offset:self.out_offset + self.obytes])
+
+    @output.setter
+    def output(self, value: bytes) -> None:
+        if len(value) != self.obytes:
+            raise ValueError(f"slave {self.position} ({self.name}) has {self.obytes} output bytes; "
+                             f"got {len(value)}: pass exactly {self.obytes} bytes")
+        self.master.io_map[self.out_offset:self.out_offset + self.obytes] = value
+
+    @property
+    def input(self) -> bytes:
+        return bytes(self.master.io_map[self.in_offset:self.in_offset + self.ibytes])
+
+    def pdo_layout(self) -> dict[int, tuple[str, int, int]]:
+        """{object index: ('output'|'input', byte offset in this slave's data, bit length)}."""
+        out: dict[int, tuple[str, int, int]] = {}
+        for kind, pdos in (("output", self.sii.rxpdos), ("input", self.sii.txpdos)):
+            bit = 0
+            for p in pdos:
+                for e in p.entries:
+                    out.setdefault(e.index, (kind, bit // 8, e.bitlen))
+                    bit += e.bitlen
+        return out
+
+    def write_state(self) -> int:
+        """FPWR AL control = ``self.state`` (pysoem: slave.state = OP_STATE; slave.write_state())."""
+        return self.master._fp(Command.FPWR, self.config_address, REG_ALCTL,
+                               _U16.pack(self.state))[0]
+
+    def state_check(self, expected: int, timeout: int = 2000) -> int:
+        return self.master._statecheck_slave(self, expected, timeout)
+
+    def dc_sync(self, act: bool, sync0_cycle_time: int, sync0_shift_time: int = 0) -> None:
+        """SOEM's ecx_dcsync0: SYNC0 every ``sync0_cycle_time`` ns, starting 100 ms from now."""
+        m, adr = self.master, self.config_address
+        m._fp(Command.FPWR, adr, REG_DCSYNCACT, b"\x00")
+        wkc, raw = m._fp(Command.FPRD, adr, REG_DCSYSTIME, 8)
+        if wkc != 1:
+            raise MasterError(f"slave {self.position} ({self.name}): reading DC system time "
+                              "0x0910 got no answer; does it support DC? (config_dc first)")
+        t1 = _U64.unpack(raw)[0]
+        start = ((t1 + 100_000_000) // sync0_cycle_time) * sync0_cycle_time + sync0_cycle_time \
+            + sync0_shift_time if sync0_cycle_time else 0
+        m._fp(Command.FPWR, adr, REG_DCSTART0, _U64.pack(start))
+        m._fp(Command.FPWR, adr, REG_DCCYCLE0, _U32.pack(sync0_cycle_time))
+        m._fp(Command.FPWR, adr, REG_DCSYNCACT, b"\x03" if act else b"\x00")
+
+    def sdo_read(self, index: int, subindex: int, size: int = 0) -> bytes:
+        raise MailboxError(self._no_mailbox(f"sdo_read(0x{index:04X}, {subindex})"))
+
+    def sdo_write(self, index: int, subindex: int, data: bytes) -> None:
+        raise MailboxError(self._no_mailbox(f"sdo_write(0x{index:04X}, {subindex})"))
+
+    def _no_mailbox(self, what: str) -> str:
+        return (f"{what}: slave {self.position} ({self.name}) has no mailbox (SII mailbox size "
+                f"{self.sii.mbx_rx_size}, protocols 0x{self.sii.mbx_protocols:04X}), so it has no "
+                "CoE object dictionary; its PDO layout is in the SII (see pdo_layout())")
+
+
+@dataclass(frozen=True)
+class WkcDiagnosis:
+    """Why a cycle's working counter differs from the expected one."""
+
+    wkc: int
+    expected: int
+    missing: tuple[int, ...]  # positions not answering
+    not_op: tuple[tuple[int, int, int], ...]  # (position, AL status, AL status code)
+
+    def __str__(self) -> str:
+        parts = [f"working counter {self.wkc}, expected {self.expected}"]
+        for p in self.missing:
+            parts.append(f"slave {p} not responding (lost)")
+        for p, st, code in self.not_op:
+            parts.append(f"slave {p} in {state_name(st)} (AL status 0x{st:02X}, code "
+                         f"0x{code:04X} {AL_STATUS_TEXT.get(code, 'unknown')})")
+        return "; ".join(parts)
+
+
+def state_name(al_status: int) -> str:
+    name = STATE_NAMES.get(al_status & 0x0F, f"state 0x{al_status & 0x0F:X}")
+    return name + (" + ERROR" if al_status & AL_ERROR else "")
+
+
+class Master:
+    """An EtherCAT master with pysoem's interface. ``open(bus)`` in-process, ``open('veth0')`` raw."""
+
+    def __init__(self, retries: int = 3, timeout_us: int = 2000) -> None:
+        self.slaves: list[Slave] = []
+        self.transport = None
+        self.retries = retries
+        self.timeout_us = timeout_us
+        self.io_map = bytearray()
+        self.expected_wkc = 0
+        self.outputs_wkc = 0
+        self.inputs_wkc = 0
+        self.obytes = self.ibytes = 0
+        self.state = NONE_STATE
+        self.dc_time = 0
+        self.dc_ref: Slave | None = None
+        self.frames_sent = 0
+        self.frames_lost = 0
+        self._idx = 0
+        self._pending: list[tuple[bytes, bytes | None]] = []
+        self._sii_cache: dict[tuple[int, int], bytes] = {}
+
+    # ---- transport ------------------------------------------------------------------------
+    def open(self, where: Bus | str) -> None:
+        """``open(bus)`` talks to a simulated bus in-process; ``open('eth0')`` to an interface."""
+        if isinstance(where, Bus):
+            self.transport = InProcess(where)
+        elif isinstance(where, str):
+            self.transport = RawSocket(where)
+        else:
+            raise TypeError(f"open() takes a Bus or an interface name, got {where!r}")
+
+    def close(self) -> None:
+        if self.transport is not None:
+            self.transport.close()
+            self.transport = None
+
+    def _next_idx(self) -> int:
+        self._idx = (self._idx + 1) & 0xFF
+        return self._idx
+
+    def exchange(self, dgs: list[Datagram], retries: int | None = None) -> list[Datagram] | None:
+        """Send one frame holding ``dgs``; the reply's datagrams, or None after all retries."""
+        if self.transport is None:
+            raise MasterError("the master is not open: call master.open(bus) or open('eth0') first")
+        idx = self._next_idx()
+        for d in dgs:
+            d.idx = idx
+        raw = frame_bytes(dgs)
+        for _ in range(1 + (self.retries if retries is None else retries)):
+            self.frames_sent += 1
+            reply = self.transport.exchange(raw, self.timeout_us * 1e-6)
+            if reply is None:
+                self.frames_lost += 1
+                continue
+            try:
+                out = decode_frame(reply).datagrams
+            except FrameError:
+                self.frames_lost += 1
+                continue
+            if len(out) == len(dgs) and all(a.cmd == b.cmd for a, b in zip(out, dgs)):
+                return out
+            self.frames_lost += 1
+        return None
+
+    def _one(self, cmd: Command, adp: int, ado: int, data: bytes | int) -> tuple[int, bytes]:
+        out = self.exchange([datagram(cmd, adp, ado, data)])
+        if out is None:
+            return EC_NOFRAME, b""
+        return out[0].wkc, bytes(out[0].data)
+
+    def _ap(self, cmd: Command, position: int, ado: int, data: bytes | int) -> tuple[int, bytes]:
+        return self._one(cmd, (1 - position) & 0xFFFF, ado, data)
+
+    def _fp(self, cmd: Command, adr: int, ado: int, data: bytes | int) -> tuple[int, bytes]:
+        return self._one(cmd, adr, ado, data)
+
+    def _bwr(self, ado: int, data: bytes) -> int:
+        return self._one(Command.BWR, 0, ado, data)[0]
+
+    # ---- 3.1 ecx_config_init --------------------------------------------------------------
+    def config_init(self) -> int:
+        """Find the slaves, address them, read their SII; returns the slave count (0: none)."""
+        self.slaves = []
+        self._sii_cache.clear()
+        self._bwr(0x0103, b"\x00")
+        self._bwr(REG_ALCTL, bytes([INIT | AL_ERROR]))
+        self._bwr(REG_ALCTL, bytes([INIT | AL_ERROR]))
+        n, _ = self._one(Command.BRD, 0, 0x0000, 2)
+        if n <= 0:
+            return 0
+        for ado, data in ((0x0101, b"\x00"), (0x0200, _U16.pack(0x0004)), (0x0300, bytes(8)),
+                          (REG_FMMU0, bytes(48)), (REG_SM0, bytes(32)), (REG_DCSYNCACT, b"\x00"),
+                          (REG_DCSYSTIME, bytes(4)), (0x0930, _U16.pack(0x1000)),
+                          (0x0934, _U16.pack(0x0C00)), (0x0103, b"\x00"),
+                          (REG_ALCTL, bytes([INIT | AL_ERROR])), (REG_EEPCFG, b"\x02"),
+                          (REG_EEPCFG, b"\x00")):
+            self._bwr(ado, data)
+        self.slaves = [Slave(self, i) for i in range(1, n + 1)]
+        for s in self.slaves:
+            wkc, raw = self._ap(Command.APRD, s.position, REG_PDICTL, 2)
+            if wkc != 1:
+                raise MasterError(f"slave {s.position}: APRD 0x0140 got WKC {wkc}, expected 1 "
+                                  "(did the bus change during the scan?)")
+            s.itype = _U16.unpack(raw)[0]
+            self._ap(Command.APWR, s.position, REG_STADR, _U16.pack(EC_NODEOFFSET + s.position))
+            self._ap(Command.APWR, s.position, 0x0100, _U16.pack(1 if s.position == 1 else 0))
+            s.config_address = _U16.unpack(self._ap(Command.APRD, s.position, REG_STADR, 2)[1])[0]
+            s.alias = _U16.unpack(self._fp(Command.FPRD, s.config_address, 0x0012, 2)[1])[0]
+            estat = _U16.unpack(self._fp(Command.FPRD, s.config_address, REG_EEPCTL, 2)[1])[0]
+            s.eep_8byte = bool(estat & 0x0040)
+        for s in self.slaves:
+            s.sii = parse_header(bytes(16) + self.sii_read(s, 0x08, 0x16) + bytes(70))
+            if s.sii.mbx_rx_size:
+                raise MasterError(
+                    f"slave {s.position} ({s.sii.vendor_id:#x}:{s.sii.product_code:#x}) has a "
+                    "mailbox; this master maps slaves from their SII only (no CoE)")
+            adr = s.config_address
+            s.has_dc = bool(_U16.unpack(self._fp(Command.FPRD, adr, REG_ESCSUP, 2)[1])[0] & 0x04)
+            s.dl_status = _U16.unpack(self._fp(Command.FPRD, adr, REG_DLSTAT, 2)[1])[0]
+            s.topology, s.active_ports = 0, 0
+            for p in range(4):
+                if (s.dl_status >> (8 + 2 * p)) & 0x3 == 0x2:
+                    s.topology += 1
+                    s.active_ports |= 1 << p
+            s.ptype = self._fp(Command.FPRD, adr, REG_PORTDES, 2)[1][0]
+            s.parent = s.position - 1 if s.position > 1 else 0
+            self._statecheck_slave(s, INIT, 2000)
+            parse_categories(self.sii_categories(s), s.sii)
+            s.sm = [(start, length, ctl | (en << 16)) for start, length, ctl, en, _t in s.sii.sms]
+            s.sm_type = [t for *_x, t in s.sii.sms]
+            self._eeprom_to_pdi(s)
+            self._fp(Command.FPWR, adr, REG_ALCTL, _U16.pack(PREOP | AL_ERROR))
+        self.dc_ref = next((s for s in self.slaves if s.has_dc), None)
+        return n
+
+    # ---- SII through the ESC's EEPROM interface (ecx_readeeprom1/2) ------------------------
+    def _eeprom_to_master(self, s: Slave) -> None:
+        if s.eep_pdi:
+            self._fp(Command.FPWR, s.config_address, REG_EEPCFG, b"\x02")
+            self._fp(Command.FPWR, s.config_address, REG_EEPCFG, b"\x00")
+            s.eep_pdi = False
+
+    def _eeprom_to_pdi(self, s: Slave) -> None:
+        if not s.eep_pdi:
+            self._fp(Command.FPWR, s.config_address, REG_EEPCFG, b"\x01")
+            s.eep_pdi = True
+
+    def _eeprom_wait(self, s: Slave) -> int:
+        for _ in range(100):
+            wkc, raw = self._fp(Command.FPRD, s.config_address, REG_EEPCTL, 2)
+            if wkc == 1:
+                st = _U16.unpack(raw)[0]
+                if not st & 0x8000:
+                    return st
+        raise SiiError(f"slave {s.position}: the EEPROM interface (0x0502) stayed busy or silent "
+                       "for 100 polls")
+
+    def sii_read(self, s: Slave, word: int, nwords: int) -> bytes:
+        """``nwords`` SII words from ``word`` on, 4 (or 2) words per EEPROM read as SOEM does."""
+        step = 4 if s.eep_8byte else 2
+        out = bytearray()
+        w = word - word % step
+        while w < word + nwords:
+            block = self._sii_cache.get((s.position, w))
+            if block is None:
+                block = self._sii_block(s, w, step)
+                self._sii_cache[(s.position, w)] = block
+            out += block
+            w += step
+        skip = (word % step) * 2
+        return bytes(out[skip:skip + nwords * 2])
+
+    def _sii_block(self, s: Slave, word: int, step: int) -> bytes:
+        self._eeprom_to_master(s)
+        adr = s.config_address
+        st = self._eeprom_wait(s)
+        if st & 0x7800:
+            self._fp(Command.FPWR, adr, REG_EEPCTL, _U16.pack(0))
+        self._fp(Command.FPWR, adr, REG_EEPCTL, _U16.pack(0x0100) + _U32.pack(word))
+        st = self._eeprom_wait(s)
+        if st & 0x7800:
+            self._fp(Command.FPWR, adr, REG_EEPCTL, _U16.pack(0))
+            raise SiiError(f"slave {s.position}: SII word 0x{word:04X} could not be read (EEPROM "
+                           f"status 0x{st:04X}, error bits 0x{st & 0x7800:04X}): the word is beyond "
+                           "this slave's EEPROM; SII categories end at the 0xFFFF marker")
+        wkc, raw = self._fp(Command.FPRD, adr, REG_EEPDAT, step * 2)
+        if wkc != 1:
+            raise SiiError(f"slave {s.position}: reading EEPROM data 0x0508 got WKC {wkc}")
+        return raw
+
+    def sii_categories(self, s: Slave) -> bytes:
+        """The SII image from word 0 to the end marker (categories walked as ecx_siifind does)."""
+        w = 0x40
+        while True:
+            cat, length = struct.unpack("<HH", self.sii_read(s, w, 2))
+            if cat == 0xFFFF:
+                break
+            w += 2 + length
+            if w > 0x8000:
+                raise SiiError(f"slave {s.position}: SII categories never reach the 0xFFFF marker")
+        return bytes(0x80) + self.sii_read(s, 0x40, w + 1 - 0x40)
+
+    # ---- 3.2 ecx_config_map_group ------------------------------------------------------------
+    def config_map(self) -> int:
+        """Map every slave's PDOs into one process image; request SAFE_OP. Returns its size."""
+        if not self.slaves:
+            raise MasterError("config_map() before config_init() found any slave")
+        for s in self.slaves:
+            self._statecheck_slave(s, PREOP, 2000)
+            self._map_sii(s)
+            self._map_sm(s)
+        log, bit = 0, 0
+        self.outputs_wkc = self.inputs_wkc = 0
+        for s in self.slaves:
+            s.fmmus = []
+            if s.obits:
+                s.out_offset = log
+                log, bit = self._create_mapping(s, s.obits, s.obytes, SM_TYPE_OUTPUTS, 2, log, bit)
+                self.outputs_wkc += 1
+        if bit:
+            log, bit = log + 1, 0
+        self.obytes = log
+        for s in self.slaves:
+            if s.ibits:
+                s.in_offset = log
+                log, bit = self._create_mapping(s, s.ibits, s.ibytes, SM_TYPE_INPUTS, 1, log, bit)
+                self.inputs_wkc += 1
+            self._eeprom_to_pdi(s)
+            self._fp(Command.FPWR, s.config_address, REG_ALCTL, _U16.pack(SAFEOP))
+        if bit:
+            log += 1
+        self.ibytes = log - self.obytes
+        self.io_map = bytearray(log)
+        self.expected_wkc = 2 * self.outputs_wkc + self.inputs_wkc
+        return log
+
+    def _map_sii(self, s: Slave) -> None:
+        bits = {}
+        for kind, pdos in ((SM_TYPE_INPUTS, s.sii.txpdos), (SM_TYPE_OUTPUTS, s.sii.rxpdos)):
+            per_sm: dict[int, int] = {}
+            for p in pdos:
+                if p.sm < 8:
+                    per_sm[p.sm] = per_sm.get(p.sm, 0) + p.bits
+            for sm, b in per_sm.items():
+                if sm >= len(s.sm):
+                    raise MasterError(f"slave {s.position} ({s.name}): a PDO is assigned to SM{sm} "
+                                      f"but the SII lists only {len(s.sm)} SyncManagers")
+                start, _len, flags = s.sm[sm]
+                s.sm[sm] = (start, (b + 7) // 8, flags)
+                s.sm_type[sm] = kind
+            bits[kind] = sum(per_sm.values())
+        s.ibits, s.obits = bits.get(SM_TYPE_INPUTS, 0), bits.get(SM_TYPE_OUTPUTS, 0)
+        s.ibytes = (s.ibits + 7) // 8 if s.ibits > 7 else 0
+        s.obytes = (s.obits + 7) // 8 if s.obits > 7 else 0
+
+    def _map_sm(self, s: Slave) -> None:
+        for i, (start, length, flags) in enumerate(s.sm):
+            if not start or (i < 2 and s.sii.mbx_rx_size):
+                continue
+            if i >= 2 or not s.sii.mbx_rx_size:
+                flags = flags | 0x10000 if length else flags & ~0x10000
+                s.sm[i] = (start, length, flags)
+                self._fp(Command.FPWR, s.config_address, REG_SM0 + 8 * i,
+                         struct.pack("<HHI", start, length, flags))
+
+    def _create_mapping(self, s: Slave, bits: int, nbytes: int, sm_type: int, fmmu_type: int,
+                        log: int, bit: int) -> tuple[int, int]:
+        sm = next((i for i, t in enumerate(s.sm_type) if t == sm_type), None)
+        if sm is None:
+            raise MasterError(f"slave {s.position} ({s.name}): {bits} bits of "
+                              f"{'outputs' if sm_type == SM_TYPE_OUTPUTS else 'inputs'} but no SM of type {sm_type}")
+        phys = s.sm[sm][0]
+        if nbytes == 0:  # bit-oriented slave: pack bit by bit (SOEM's LogStartbit/LogEndbit)
+            f = Fmmu(log, 0, bit, 0, phys, fmmu_type)
+            bit += bits - 1
+            if bit > 7:
+                log, bit = log + 1, bit - 8
+            f.log_length = log - f.log_start + 1
+            f.log_endbit = bit
+            bit += 1
+            if bit > 7:
+                log, bit = log + 1, bit - 8
+        else:
+            if bit:
+                log, bit = log + 1, 0
+            f = Fmmu(log, nbytes, 0, 7, phys, fmmu_type)
+            log += nbytes
+        if sm_type == SM_TYPE_OUTPUTS:
+            s.out_offset = f.log_start
+        else:
+            s.in_offset = f.log_start
+        idx = len(s.fmmus)
+        s.fmmus.append(f)
+        self._fp(Command.FPWR, s.config_address, REG_FMMU0 + 16 * idx, f.pack())
+        return log, bit
+
+    # ---- 3.3 ecx_configdc --------------------------------------------------------------
+    def config_dc(self) -> bool:
+        """Latch port times, set each DC slave's offset and propagation delay; True if any DC."""
+        dc = [s for s in self.slaves if s.has_dc]
+        if not dc:
+            return False
+        self._bwr(REG_DCTIME0, bytes(4))
+        master_time = time.time_ns() - EPOCH_2000_S * 1_000_000_000
+        for s in dc:
+            adr = s.config_address
+            t0 = _U32.unpack(self._fp(Command.FPRD, adr, REG_DCTIME0, 4)[1])[0]
+            wkc, raw = self._fp(Command.FPRD, adr, REG_DCSOF, 8)
+            sof = _U64.unpack(raw)[0] if wkc == 1 else 0
+            self._fp(Command.FPWR, adr, REG_DCSYSOFFSET,
+                     _U64.pack((master_time - sof) & 0xFFFFFFFFFFFFFFFF))
+            t1 = _U32.unpack(self._fp(Command.FPRD, adr, REG_DCTIME0 + 4, 4)[1])[0]
+            s.dc_port_times = (t0, t1 if s.active_ports & 0x2 else None)
+        delays = line_delays([s.dc_port_times for s in dc])
+        for s, d in zip(dc, delays):
+            s.dc_delay = d
+            if s is not dc[0]:
+                self._fp(Command.FPWR, s.config_address, REG_DCSYSDELAY, _U32.pack(d))
+        self.dc_ref = dc[0]
+        return True
+
+    # ---- states -----------------------------------------------------------------------
+    def _statecheck_slave(self, s: Slave, expected: int, timeout_us: int) -> int:
+        deadline = time.monotonic() + timeout_us * 1e-6
+        while True:
+            wkc, raw = self._fp(Command.FPRD, s.config_address, REG_ALSTAT, 6)
+            if wkc == 1:
+                s.al_status, _, s.al_status_code = struct.unpack("<HHH", raw)
+                s.state = s.al_status & 0x1F
+                s.is_lost = False
+            else:
+                s.state = NONE_STATE
+            if s.state & 0x0F == expected or time.monotonic() >= deadline:
+                return s.state & 0x0F
+            time.sleep(0.0002)
+
+    def state_check(self, expected: int, timeout: int = 50_000) -> int:
+        """Poll BRD AL status until every slave reports ``expected`` (OR of all) or timeout (us)."""
+        deadline = time.monotonic() + timeout * 1e-6
+        while True:
+            wkc, raw = self._one(Command.BRD, 0, REG_ALSTAT, 2)
+            state = _U16.unpack(raw)[0] & 0x0F if wkc > 0 else NONE_STATE
+            if state == expected or time.monotonic() >= deadline:
+                break
+            time.sleep(0.0002)
+        if state != expected or wkc < len(self.slaves):
+            self.read_state()
+            return self._lowest()
+        for s in self.slaves:
+            s.state = s.al_status = expected
+        return state
+
+    def _lowest(self) -> int:
+        states = [s.state & 0x0F for s in self.slaves]
+        return min(states) if states else NONE_STATE
+
+    def read_state(self) -> int:
+        """BRD AL status; if not one clean state, FPRD every slave's status and code."""
+        wkc, raw = self._one(Command.BRD, 0, REG_ALSTAT, 2)
+        if wkc >= len(self.slaves) and wkc > 0:
+            st = _U16.unpack(raw)[0]
+            if st & 0x0F in STATE_NAMES and not st & AL_ERROR and bin(st & 0x0F).count("1") == 1:
+                for s in self.slaves:
+                    s.state = s.al_status = st
+                    s.al_status_code = 0
+                return st & 0x0F
+        for s in self.slaves:
+            wkc, raw = self._fp(Command.FPRD, s.config_address, REG_ALSTAT, 6)
+            if wkc == 1:
+                s.al_status, _, s.al_status_code = struct.unpack("<HHH", raw)
+                s.state = s.al_status & 0x1F
+            else:
+                s.state = NONE_STATE
+        return self._lowest()
+
+    def write_state(self) -> int:
+        """BWR AL control = ``self.state`` (pysoem: master.state = OP_STATE; master.write_state())."""
+        return self._bwr(REG_ALCTL, _U16.pack(self.state))
+
+    # ---- 4 process data ----------------------------------------------------------------
+    def _segments(self) -> list[tuple[int, int]]:
+        blocks = sorted((f.log_start, f.log_start + f.log_length) for s in self.slaves for f in s.fmmus)
+        segs: list[tuple[int, int]] = []
+        start = 0
+        for lo, hi in blocks:
+            if hi - start > MAX_LRW_DATA and lo > start:
+                segs.append((start, lo))
+                start = lo
+        if len(self.io_map) > start:
+            segs.append((start, len(self.io_map)))
+        return segs
+
+    def send_processdata(self) -> None:
+        """One LRW per segment of the image (+ FRMW of the DC reference's 0x0910 in the first)."""
+        self._pending = []
+        for i, (lo, hi) in enumerate(self._segments()):
+            dgs = [Datagram.logical_cmd(Command.LRW, lo, bytes(self.io_map[lo:hi]))]
+            if i == 0 and self.dc_ref is not None:
+                dgs.append(datagram(Command.FRMW, self.dc_ref.config_address, REG_DCSYSTIME, 8))
+            self._pending.append((lo, self.exchange(dgs, retries=0)))
+
+    def receive_processdata(self, timeout: int = 2000) -> int:
+        """The LRW working counters summed, or -1 (EC_NOFRAME) when a reply never came."""
+        if not self._pending:
+            return EC_NOFRAME
+        wkc = 0
+        for lo, reply in self._pending:
+            if reply is None:
+                self._pending = []
+                return EC_NOFRAME
+            lrw = reply[0]
+            self.io_map[lo:lo + len(lrw.data)] = lrw.data
+            wkc += lrw.wkc
+            if len(reply) > 1:
+                self.dc_time = _U64.unpack(bytes(reply[1].data))[0]
+        self._pending = []
+        return wkc
+
+    # ---- 4 supervision: SOEM simple_test's ecatcheck -------------------------------------
+    def diagnose(self, wkc: int) -> WkcDiagnosis:
+        """Which slaves explain a working counter below ``expected_wkc``."""
+        self.read_state()
+        missing = tuple(s.position for s in self.slaves if s.state == NONE_STATE)
+        bad = tuple((s.position, s.al_status, s.al_status_code) for s in self.slaves
+                    if s.state != NONE_STATE and s.state != OP)
+        for s in self.slaves:
+            s.is_lost = s.state == NONE_STATE
+        return WkcDiagnosis(wkc, self.expected_wkc, missing, bad)
+
+    def check(self) -> list[str]:
+        """One pass of simple_test's ecatcheck: ack errors, ask SAFE_OP slaves for OP, find lost
+        slaves again. Returns the messages it would print."""
+        msgs: list[str] = []
+        self.read_state()
+        all_op = True
+        for s in self.slaves:
+            if s.state == OP:
+                continue
+            all_op = False
+            if s.state == SAFEOP | AL_ERROR:
+                msgs.append(f"ERROR : slave {s.position} is in SAFE_OP + ERROR, attempting ack.")
+                s.state = SAFEOP | AL_ERROR
+                s.write_state()
+            elif s.state == SAFEOP:
+                msgs.append(f"WARNING : slave {s.position} is in SAFE_OP, change to OPERATIONAL.")
+                s.state = OP
+                s.write_state()
+            elif s.state > NONE_STATE:
+                if self.reconfig_slave(s):
+                    msgs.append(f"MESSAGE : slave {s.position} reconfigured")
+            elif not s.is_lost:
+                s.is_lost = True
+                msgs.append(f"ERROR : slave {s.position} lost")
+            if s.is_lost and s.state == NONE_STATE:
+                if self.recover_slave(s):
+                    msgs.append(f"MESSAGE : slave {s.position} recovered")
+        if all_op:
+            msgs.append("OK : all slaves resumed OPERATIONAL.")
+        return msgs
+
+    def recover_slave(self, s: Slave) -> bool:
+        """A lost slave answers again at its position: re-address it if it lost its address."""
+        wkc, raw = self._ap(Command.APRD, s.position, REG_STADR, 2)
+        if wkc != 1:
+            return False
+        if _U16.unpack(raw)[0] != s.config_address:
+            self._ap(Command.APWR, s.position, REG_STADR, _U16.pack(s.config_address))
+        s.is_lost = False
+        self._statecheck_slave(s, s.state, 0)
+        return True
+
+    def reconfig_slave(self, s: Slave) -> bool:
+        """Back to INIT, SMs and FMMUs rewritten, up to SAFE_OP (SOEM's ecx_reconfig_slave)."""
+        adr = s.config_address
+        self._fp(Command.FPWR, adr, REG_ALCTL, _U16.pack(INIT | AL_ERROR))
+        if self._statecheck_slave(s, INIT, 2000) != INIT:
+            return False
+        self._fp(Command.FPWR, adr, REG_ALCTL, _U16.pack(PREOP | AL_ERROR))
+        if self._statecheck_slave(s, PREOP, 2000) != PREOP:
+            return False
+        self._map_sm(s)
+        for i, f in enumerate(s.fmmus):
+            self._fp(Command.FPWR, adr, REG_FMMU0 + 16 * i, f.pack())
+        self._fp(Command.FPWR, adr, REG_ALCTL, _U16.pack(SAFEOP))
+        return self._statecheck_slave(s, SAFEOP, 2000) == SAFEOP
+
+    # ---- convenience: the whole bring-up -------------------------------------------------
+    def bring_up(self, dc: bool = True, cycles_to_op: int = 20) -> int:
+        """config_init, config_map, config_dc, SAFE_OP, then OP while exchanging process data
+        (simple_test's sequence). Returns the IO map size; raises with the state of every slave
+        that did not make it."""
+        if self.config_init() <= 0:
+            raise MasterError("no slaves found: BRD 0x0000 returned working counter 0")
+        size = self.config_map()
+        if dc:
+            self.config_dc()
+        if self.state_check(SAFEOP, 50_000) != SAFEOP:
+            raise MasterError("not every slave reached SAFE_OP: " + self._states_text())
+        self.state = OP
+        self.send_processdata()
+        self.receive_processdata()
+        self.write_state()
+        for _ in range(cycles_to_op):
+            self.send_processdata()
+            self.receive_processdata()
+            if self.state_check(OP, 5_000) == OP:
+                return size
+        raise MasterError("not every slave reached OP: " + self._states_text())
+
+    def _states_text(self) -> str:
+        return ", ".join(f"slave {s.position} ({s.name}) {state_name(s.al_status)} code "
+                         f"0x{s.al_status_code:04X}" for s in self.slaves)
+
+    def run_cyclic(self, cycles: int, period_ns: int = 1_000_000, on_cycle=None, wait=None):
+        """Exchange process data every ``period_ns`` inside robocourse.rt's periodic loop.
+
+        ``on_cycle(master, k, wkc)`` runs after each exchange (write outputs there). Returns
+        (LoopResult with latency statistics, list of (cycle, WkcDiagnosis) for short cycles).
+        """
+        from robocourse.rt.loop import PeriodicLoop
+
+        faults: list[tuple[int, WkcDiagnosis]] = []
+
+        def cycle(tick) -> None:
+            self.send_processdata()
+            wkc = self.receive_processdata()
+            if wkc < self.expected_wkc:
+                faults.append((tick.iteration,
+                               self.diagnose(wkc)))
+            if on_cycle is not None:
+                on_cycle(self, tick.iteration, wkc)
+
+        result = PeriodicLoop(period_ns, cycles, wait).run(cycle)
+        return result, faults
+
+
+def pdo_names(pdos: list[Pdo]) -> list[str]:
+    return [f"0x{e.index:04X}:{e.subindex:02X} {e.bitlen} bits" for p in pdos for e in p.entries]
