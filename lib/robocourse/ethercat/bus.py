@@ -52,8 +52,8 @@ class Bus:
     """Slaves in a line; ``process(frame)`` returns the reply the master would receive."""
 
     def __init__(self, slaves: Sequence[Esc], *, clock: Callable[[], int] = time.monotonic_ns,
-                 forward_ns: Sequence[float] | float = 700.0,
-                 return_ns: Sequence[float] | float = 300.0,
+                 forward_ns: Sequence[float] | float = 500.0,
+                 return_ns: Sequence[float] | float = 500.0,
                  capture: PcapWriter | None = None) -> None:
         if not slaves:
             raise ValueError("a bus needs at least one slave, e.g. Bus([DigitalInputs()])")
@@ -105,6 +105,13 @@ class Bus:
             raise ValueError(f"corrupt({k}): k must be 1..{len(self.slaves)}")
         self._corrupt += [k] * n
 
+    def power_cycle(self, k: int) -> None:
+        """Slave ``k`` (1-based) loses power and restarts: INIT, station address 0."""
+        esc = self.slaves[k - 1]
+        esc.power_on()
+        esc.set_port_link(0, k <= self.connected)
+        esc.set_port_link(1, k < self.connected)
+
     def slave_error(self, k: int, code: int, state: int = 0x04) -> None:
         """Slave ``k`` (1-based) reports an application error: drop to ``state`` + error flag."""
         self.slaves[k - 1].fail(code, state)
@@ -148,9 +155,11 @@ class Bus:
         for i in range(n):
             t_in[i] = t
             t += self.forward_ns[i]
-        t_back = [0.0] * n
-        t_exit = t  # the last slave turns the frame round
-        for i in range(n - 1, -1, -1):
+        # the last slave turns the frame round inside (port 1 closed): it leaves its port 0 at
+        # t; every other slave sees it back at port 1 then returns it through port 0
+        t_back = [t] * n
+        t_exit = t
+        for i in range(n - 2, -1, -1):
             t_back[i] = t_exit
             t_exit += self.return_ns[i]
         for i in range(n):

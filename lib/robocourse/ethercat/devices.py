@@ -126,10 +126,12 @@ class DigitalOutputs(Esc):
         super().__init__(DIGITAL_OUTPUTS, ET1200, port_descriptor=0x0A, **kw)
         self.outputs = 0
         self.updates = 0  # process-data values applied in OP
+        self.values_seen: set[int] = set()
 
     def application(self, now_ns: float) -> None:
         if self.state == OP:
             self.outputs = self.mem[0x0F00]
+            self.values_seen.add(self.outputs)
             self.updates += 1
 
     def safe_outputs(self) -> None:

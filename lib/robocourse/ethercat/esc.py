@@ -486,15 +486,19 @@ class Esc:
     # ---- distributed clock ----------------------------------------------------------------
     def system_time(self, bus_ns: float) -> int:
         offset = _U64.unpack_from(self.mem, REG_DCSYSOFFSET)[0]
-        return (int(self.clock.local(bus_ns)) + offset) & 0xFFFFFFFFFFFFFFFF
+        return (self.local_ticks(bus_ns) + offset) & 0xFFFFFFFFFFFFFFFF
+
+    def local_ticks(self, bus_ns: float) -> int:
+        """The local clock as its register shows it: a counter in 10-ns ticks."""
+        return int(self.clock.local(bus_ns)) // 10 * 10
 
     def _dc_write(self, ado: int, end: int, data) -> None:
         clock, mem = self.clock, self.mem
         if ado < REG_DCTIME0 + 4 and REG_DCTIME0 < end:  # latch receive times on all ports
-            _U32.pack_into(mem, REG_DCTIME0, int(clock.local(self.t_port0)) & 0xFFFFFFFF)
-            t1 = int(clock.local(self.t_port1)) & 0xFFFFFFFF if self.link[1] else 0
+            _U32.pack_into(mem, REG_DCTIME0, self.local_ticks(self.t_port0) & 0xFFFFFFFF)
+            t1 = self.local_ticks(self.t_port1) & 0xFFFFFFFF if self.link[1] else 0
             _U32.pack_into(mem, REG_DCTIME0 + 4, t1)
-            _U64.pack_into(mem, REG_DCSOF, int(clock.local(self.t_port0 + SOF_DELAY_NS)))
+            _U64.pack_into(mem, REG_DCSOF, self.local_ticks(self.t_port0 + SOF_DELAY_NS))
         if ado < REG_DCSYSTIME + 8 and REG_DCSYSTIME < end:
             raw = bytes(data[REG_DCSYSTIME - ado:REG_DCSYSTIME - ado + 8]) if ado <= REG_DCSYSTIME \
                 else b""

@@ -21,6 +21,8 @@ import struct
 import time
 from dataclasses import dataclass, field
 
+from robocourse.rt.loop import PeriodicLoop
+
 from .bus import Bus
 from .dc import line_delays
 from .esc import (
@@ -652,8 +654,6 @@ class Master:
         missing = tuple(s.position for s in self.slaves if s.state == NONE_STATE)
         bad = tuple((s.position, s.al_status, s.al_status_code) for s in self.slaves
                     if s.state != NONE_STATE and s.state != OP)
-        for s in self.slaves:
-            s.is_lost = s.state == NONE_STATE
         return WkcDiagnosis(wkc, self.expected_wkc, missing, bad)
 
     def check(self) -> list[str]:
@@ -663,9 +663,9 @@ class Master:
         self.read_state()
         all_op = True
         for s in self.slaves:
-            if s.state == OP:
+            if s.state == OP and not s.is_lost:
                 continue
-            all_op = False
+            all_op = all_op and s.state == OP
             if s.state == SAFEOP | AL_ERROR:
                 msgs.append(f"ERROR : slave {s.position} is in SAFE_OP + ERROR, attempting ack.")
                 s.state = SAFEOP | AL_ERROR
@@ -680,8 +680,11 @@ class Master:
             elif not s.is_lost:
                 s.is_lost = True
                 msgs.append(f"ERROR : slave {s.position} lost")
-            if s.is_lost and s.state == NONE_STATE:
-                if self.recover_slave(s):
+            if s.is_lost:
+                if s.state != NONE_STATE:
+                    s.is_lost = False
+                    msgs.append(f"MESSAGE : slave {s.position} found")
+                elif self.recover_slave(s):
                     msgs.append(f"MESSAGE : slave {s.position} recovered")
         if all_op:
             msgs.append("OK : all slaves resumed OPERATIONAL.")
@@ -746,8 +749,6 @@ class Master:
         ``on_cycle(master, k, wkc)`` runs after each exchange (write outputs there). Returns
         (LoopResult with latency statistics, list of (cycle, WkcDiagnosis) for short cycles).
         """
-        from robocourse.rt.loop import PeriodicLoop
-
         faults: list[tuple[int, WkcDiagnosis]] = []
 
         def cycle(tick) -> None:
