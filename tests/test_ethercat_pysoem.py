@@ -38,3 +38,24 @@ def test_soem_scans_maps_and_runs_our_bus_in_op_for_1000_cycles():
     assert [e.state for e in bus.slaves] == [1, 1, 1, 1]
     assert bus.slaves[3].cia_state == "switch on disabled"
     assert rep["bus_replies"] > 1000
+
+
+@pytest.mark.skipif(REASON is not None, reason=str(REASON))
+@pytest.mark.timeout(300)
+def test_our_master_over_raw_ethernet_scans_the_bus_like_slaveinfo():
+    import sys
+
+    from robocourse.ethercat.netns import VethPair
+    from robocourse.ethercat.transport import serve
+
+    bus = demo_bus()
+    with VethPair("s") as v:
+        server = serve(bus, v.bus_if)
+        try:
+            r = v.run([sys.executable, "-m", "robocourse.cli", "ethercat", "slaveinfo",
+                       "--ifname", v.master_if], timeout=240)
+        finally:
+            server.stop()
+    assert r.returncode == 0, r.stderr
+    assert f"ec_init on {v.master_if} succeeded.\n4 slaves found and configured.\n" in r.stdout
+    assert "Calculated workcounter 6\n" in r.stdout and " Name:RC-Servo\n" in r.stdout

@@ -69,7 +69,7 @@ def cia402_state(statusword: int) -> str:
 
 
 def _bit_pdos(base_pdo: int, base_obj: int, sm: int, what: str) -> tuple[Pdo, ...]:
-    return tuple(Pdo(base_pdo + ch, sm, (PdoEntry(base_obj + 0x10 * ch, 1, 1, f"{what}"),),
+    return tuple(Pdo(base_pdo + ch, sm, (PdoEntry(base_obj + 0x10 * ch, 1, 1, what, 0x0001),),
                      f"Channel {ch + 1}") for ch in range(8))
 
 

@@ -241,17 +241,20 @@ def parse_header(words: bytes) -> SiiInfo:
     return info
 
 
-def _parse_pdos(data: bytes) -> list[Pdo]:
+def _parse_pdos(data: bytes, strings: list[str]) -> list[Pdo]:
+    def name(i: int) -> str:
+        return strings[i - 1] if 0 < i <= len(strings) else ""
+
     pdos, pos = [], 0
     while pos + 8 <= len(data):
-        index, n, sm, _sync, _name, _flags = struct.unpack_from("<HBBBBH", data, pos)
+        index, n, sm, _sync, name_i, _flags = struct.unpack_from("<HBBBBH", data, pos)
         pos += 8
         entries = []
         for _ in range(n):
-            e_index, e_sub, _e_name, e_type, e_bits, _ = struct.unpack_from("<HBBBBH", data, pos)
-            entries.append(PdoEntry(e_index, e_sub, e_bits, datatype=e_type))
+            e_index, e_sub, e_name, e_type, e_bits, _ = struct.unpack_from("<HBBBBH", data, pos)
+            entries.append(PdoEntry(e_index, e_sub, e_bits, name(e_name), e_type))
             pos += 8
-        pdos.append(Pdo(index, sm, tuple(entries)))
+        pdos.append(Pdo(index, sm, tuple(entries), name(name_i)))
     return pdos
 
 
@@ -283,9 +286,9 @@ def parse_categories(image: bytes, info: SiiInfo) -> SiiInfo:
         elif cat == CAT_SM:
             info.sms = [struct.unpack_from("<HHBxBB", data, o) for o in range(0, len(data) - 7, 8)]
         elif cat == CAT_TXPDO:
-            info.txpdos = _parse_pdos(data)
+            info.txpdos = _parse_pdos(data, info.strings)
         elif cat == CAT_RXPDO:
-            info.rxpdos = _parse_pdos(data)
+            info.rxpdos = _parse_pdos(data, info.strings)
         pos += 4 + 2 * words
     return info
 
