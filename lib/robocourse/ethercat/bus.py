@@ -20,7 +20,7 @@ import time
 from collections import Counter
 from collections.abc import Callable, Sequence
 
-from .esc import REG_STADR, Esc
+from .esc import Esc
 from .frames import (
     MIN_FRAME_LEN,
     SLAVE_SOURCE_BIT,
@@ -162,6 +162,7 @@ class Bus:
         for i in range(n - 2, -1, -1):
             t_back[i] = t_exit
             t_exit += self.return_ns[i]
+        plan = [(d, _KIND[d.cmd], _RW[d.cmd]) for d in dgs]
         for i in range(n):
             esc = slaves[i]
             if bad == i + 1:
@@ -171,24 +172,21 @@ class Bus:
                 return None
             esc.poll(t_in[i])
             esc.t_port0, esc.t_port1 = t_in[i], t_back[i]
-            self._slave_pass(esc, dgs)
+            self._slave_pass(esc, plan)
         frame.src = bytes([frame.src[0] | SLAVE_SOURCE_BIT]) + frame.src[1:]
         for i in range(n):
             slaves[i].application(t_back[i])
         return frame
 
     @staticmethod
-    def _slave_pass(esc: Esc, dgs) -> None:
+    def _slave_pass(esc: Esc, plan) -> None:
         """One ESC processes every datagram of the frame (the hot path: keep it short)."""
-        station = None
         irq = esc.irq
-        for d in dgs:
-            kind = _KIND[d.cmd]
+        for d, kind, rw in plan:
             if kind == 0:
                 continue
             d.irq |= irq
             if kind == 4:
-                rw = _RW[d.cmd]
                 got = esc.logical(rw & 1, rw & 2, d.logical, d.data)
                 if got:
                     d.wkc += got if rw == 3 else 1
@@ -197,11 +195,7 @@ class Bus:
                 hit = d.adp == 0
                 d.adp = (d.adp + 1) & 0xFFFF
             elif kind == 2 or kind == 6:
-                if station is None:
-                    station = int.from_bytes(esc.mem[REG_STADR:REG_STADR + 2], "little")
-                    alias = int.from_bytes(esc.mem[0x0012:0x0014], "little") \
-                        if esc.mem[0x0103] & 1 else None
-                hit = d.adp == station or (alias is not None and d.adp == alias)
+                hit = d.adp == esc.station or d.adp == esc.alias_active
             else:  # broadcast: every slave, and every slave increments ADP
                 d.adp = (d.adp + 1) & 0xFFFF
                 Bus._broadcast(esc, d)
@@ -217,7 +211,6 @@ class Bus:
                 continue
             if not hit:
                 continue
-            rw = _RW[d.cmd]
             if rw == 1:
                 got = esc.read(d.ado, len(d.data))
                 if got is not None:

@@ -104,7 +104,7 @@ class Esc:
     __slots__ = ("desc", "model", "mem", "sii", "clock", "device_emulation", "ports",
                  "link", "t_port0", "t_port1", "now_ns", "_fmmus", "_sms", "_holes",
                  "_ro", "_eep_busy", "_eep_err", "_eep_cmd", "_out_write_ns", "_sm_blocked",
-                 "_sm_roles", "wd_expired")
+                 "_sm_roles", "wd_expired", "_has_outputs", "_wd_ns", "station", "alias_active")
 
     def __init__(self, desc: DeviceDescription, model: EscModel = ET1100, *,
                  device_emulation: bool = False, port_descriptor: int = 0x0F,
@@ -133,6 +133,10 @@ class Esc:
         self._sm_blocked: set[int] = set()
         self._sm_roles = {i: sm.sm_type for i, sm in enumerate(desc.sms)}
         self.wd_expired = False
+        self._has_outputs = desc.output_bits > 0
+        self._wd_ns = 0.0
+        self.station = 0  # 0x0010, cached for configured addressing
+        self.alias_active: int | None = None  # 0x0012 when DL control 0x0103 bit 0 is set
         self.power_on()
 
     # ---- power-on defaults -------------------------------------------------------------
@@ -147,10 +151,12 @@ class Esc:
         _U16.pack_into(mem, REG_PDICTL, _U16.unpack_from(self.sii, 0)[0])
         _U16.pack_into(mem, REG_WD_DIV, 0x09C2)  # 2498 -> (2498 + 2) * 40 ns = 100 us
         _U16.pack_into(mem, REG_WD_TIME_PD, 1000)  # x 100 us = 100 ms
+        self._wd_ns = self._watchdog_from_registers()
         _U16.pack_into(mem, REG_ALSTAT, INIT)
         _U16.pack_into(mem, REG_ALCTL, INIT)
         _U16.pack_into(mem, REG_EEPCTL, EEP_R64)
         self._fmmus, self._sms = [], []
+        self.station, self.alias_active = 0, None
         self._apply_state(INIT)
         self._update_dl_status()
 
@@ -179,6 +185,8 @@ class Esc:
         """Whether this ESC model has memory at ``ado..end`` (no WKC otherwise)."""
         if end > len(self.mem):
             return False
+        if ado >= 0x1000:  # process RAM: every model has it up to its size
+            return True
         for lo, hi in self._holes:
             if ado < hi and lo < end:
                 return False
@@ -203,6 +211,9 @@ class Esc:
         if not self.exists(ado, end) or not self._sm_allows(ado, end, True):
             return False
         mem = self.mem
+        if ado == REG_DCSYSTIME and self.clock is not None and end - ado in (4, 8):
+            self._dc_write(ado, end, data)  # the FRMW/ARMW of every cycle: its own fast path
+            return True
         if ado >= 0x1000:
             mem[ado:end] = data
             if self._sms:
@@ -232,7 +243,8 @@ class Esc:
             p1 = p0 + hi - lo
             d0 = lo - laddr
             plain = sb == 0 and eb == 7 and psb == 0
-            if write and typ & 2 and self.exists(p0, p1) and self._sm_allows(p0, p1, True):
+            exists = p1 <= len(mem) if p0 >= 0x1000 else self.exists(p0, p1)
+            if write and typ & 2 and exists and self._sm_allows(p0, p1, True):
                 if plain:
                     mem[p0:p1] = data[d0:d0 + hi - lo]
                 else:
@@ -241,7 +253,7 @@ class Esc:
                     self._on_register_write(p0, p1, mem[p0:p1])
                 self._note_output_write(p0, p1)
                 did_w = True
-            if read and typ & 1 and self.readable(p0, p1 - p0):
+            if read and typ & 1 and exists and self._sm_allows(p0, p1, False):
                 if p0 < 0x0A00:
                     self._refresh(p0, p1)
                 if plain:
@@ -302,6 +314,12 @@ class Esc:
 
     # ---- registers with side effects ----------------------------------------------------
     def _on_register_write(self, ado: int, end: int, data) -> None:
+        if ado >= 0x0A00:  # nothing above the DC block has a side effect (0x0F00 is plain I/O)
+            return
+        if ado < 0x0014 and REG_STADR < end or ado <= 0x0103 < end:
+            self.station = _U16.unpack_from(self.mem, REG_STADR)[0]
+            self.alias_active = _U16.unpack_from(self.mem, REG_ALIAS)[0] \
+                if self.mem[0x0103] & 1 else None
         if ado < REG_ALCTL + 1 and REG_ALCTL < end:
             self.al_control(_U16.unpack_from(self.mem, REG_ALCTL)[0])
         if ado <= REG_EEPCFG < end and self.mem[REG_EEPCFG] & 0x02:
@@ -310,6 +328,8 @@ class Esc:
             off = REG_EEPCTL - ado
             ctl = data[off + 1] << 8 | (data[off] if off >= 0 else self.mem[REG_EEPCTL])
             self._eeprom_command(ctl)
+        if ado < REG_WD_TIME_PD + 2 and REG_WD_DIV < end:
+            self._wd_ns = self._watchdog_from_registers()
         if ado < 0x0700 and REG_FMMU0 < end:
             self._reload_fmmus()
         if ado < 0x0880 and REG_SM0 < end:
@@ -360,6 +380,7 @@ class Esc:
             self.sii[word * 2:word * 2 + 2] = self.mem[REG_EEPDAT:REG_EEPDAT + 2]
         elif cmd == EEP_CMD_RELOAD:
             _U16.pack_into(self.mem, REG_ALIAS, _U16.unpack_from(self.sii, 8)[0])
+            self._on_register_write(REG_ALIAS, REG_ALIAS + 2, b"")
         else:
             self._eep_err = EEP_NACK
 
@@ -471,14 +492,18 @@ class Esc:
     # ---- SM watchdog ---------------------------------------------------------------------
     @property
     def watchdog_ns(self) -> float:
+        """SM watchdog time: (divider 0x0400 + 2) x 40 ns x process-data count 0x0420."""
+        return self._wd_ns
+
+    def _watchdog_from_registers(self) -> float:
         div = _U16.unpack_from(self.mem, REG_WD_DIV)[0]
         return (div + 2) * 40.0 * _U16.unpack_from(self.mem, REG_WD_TIME_PD)[0]
 
     def poll(self, now_ns: float) -> None:
         """Time passes: an output SM not written for the watchdog time drops OP to SAFE_OP."""
         self.now_ns = now_ns
-        if (self.state == OP and self.desc.output_bits and self.watchdog_ns > 0
-                and now_ns - self._out_write_ns > self.watchdog_ns):
+        if (self._has_outputs and self.mem[REG_ALSTAT] & 0x0F == OP and self._wd_ns > 0
+                and now_ns - self._out_write_ns > self._wd_ns):
             self.wd_expired = True
             _U16.pack_into(self.mem, REG_WD_STAT_PD, 0)
             self.fail(AL_SM_WATCHDOG, SAFEOP)

@@ -59,6 +59,7 @@ class Command(IntEnum):
     FRMW = 14
 
 
+_COMMANDS = tuple(Command)
 LOGICAL_COMMANDS = frozenset({Command.LRD, Command.LWR, Command.LRW})
 
 
@@ -177,11 +178,10 @@ def decode_frame(raw: bytes | bytearray | memoryview) -> Frame:
             raise FrameError(f"truncated datagram at offset {pos}: {end - pos} bytes left, "
                              "a datagram header needs 10")
         cmd, idx, address, flags, irq = _DGRAM_HEAD.unpack_from(raw, pos)
-        try:
-            command = Command(cmd)
-        except ValueError:
+        if cmd >= len(_COMMANDS):
             raise FrameError(f"unknown command {cmd} in datagram at offset {pos}: valid commands "
-                             "are 0 (NOP) to 14 (FRMW)") from None
+                             "are 0 (NOP) to 14 (FRMW)")
+        command = _COMMANDS[cmd]
         n = flags & _LEN_MASK
         data_end = pos + 10 + n
         if data_end + 2 > end:

@@ -249,6 +249,7 @@ class Master:
         self._idx = 0
         self._pending: list[tuple[bytes, bytes | None]] = []
         self._sii_cache: dict[tuple[int, int], bytes] = {}
+        self._segs: list[tuple[int, int]] = []
 
     # ---- transport ------------------------------------------------------------------------
     def open(self, where: Bus | str) -> None:
@@ -463,6 +464,7 @@ class Master:
         self.ibytes = log - self.obytes
         self.io_map = bytearray(log)
         self.expected_wkc = 2 * self.outputs_wkc + self.inputs_wkc
+        self._segs = self._segments()
         return log
 
     def _map_sii(self, s: Slave) -> None:
@@ -624,7 +626,7 @@ class Master:
     def send_processdata(self) -> None:
         """One LRW per segment of the image (+ FRMW of the DC reference's 0x0910 in the first)."""
         self._pending = []
-        for i, (lo, hi) in enumerate(self._segments()):
+        for i, (lo, hi) in enumerate(self._segs):
             dgs = [Datagram.logical_cmd(Command.LRW, lo, bytes(self.io_map[lo:hi]))]
             if i == 0 and self.dc_ref is not None:
                 dgs.append(datagram(Command.FRMW, self.dc_ref.config_address, REG_DCSYSTIME, 8))
