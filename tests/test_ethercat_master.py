@@ -1,9 +1,6 @@
 """The master: SOEM's bring-up order, process data and working counters, every injected
 fault seen and recovered, distributed clocks, the CiA 402 drive, the 1 kHz rt loop."""
 
-import io
-import struct
-
 import pytest
 
 from robocourse.ethercat import demo_bus
@@ -86,26 +83,24 @@ def test_expected_wkc_for_8_io_pairs_is_2_outputs_plus_inputs():
     assert cycle(m) == 24
 
 
-def test_bring_up_datagrams_follow_soem_detect_and_defaults_order():
-    buf = io.BytesIO()
-    bus = demo_bus(capture=PcapWriter(buf))
-    m = Master()
-    m.open(bus)
-    m.config_init()
-    bus.capture.close()
-    path = io.BytesIO(buf.getvalue())
-    frames = [decode_frame(f) for _, f in _pcap_records(path)]
+def test_bring_up_datagrams_follow_soem_detect_and_defaults_order(tmp_path):
+    with PcapWriter(tmp_path / "up.pcap") as w:
+        bus = demo_bus(capture=w)
+        m = Master()
+        m.open(bus)
+        m.config_init()
+    frames = [decode_frame(f) for _, f in read_pcap(tmp_path / "up.pcap")]
     requests = [f.datagrams[0] for f in frames if not f.src[0] & 0x02]
     rows = [(d.cmd, d.ado, len(d.data), bytes(d.data)) for d in requests[:17]]
     assert rows == [
-        (Command.BWR, 0x0103, 1, b"\x00"), (Command.BWR, 0x0120, 1, b"\x11"),
-        (Command.BWR, 0x0120, 1, b"\x11"), (Command.BRD, 0x0000, 2, b"\x00\x00"),
+        (Command.BWR, 0x0103, 1, b"\x00"), (Command.BWR, 0x0120, 2, b"\x11\x00"),
+        (Command.BWR, 0x0120, 2, b"\x11\x00"), (Command.BRD, 0x0000, 2, b"\x00\x00"),
         (Command.BWR, 0x0101, 1, b"\x00"), (Command.BWR, 0x0200, 2, b"\x04\x00"),
         (Command.BWR, 0x0300, 8, bytes(8)), (Command.BWR, 0x0600, 48, bytes(48)),
         (Command.BWR, 0x0800, 32, bytes(32)), (Command.BWR, 0x0981, 1, b"\x00"),
         (Command.BWR, 0x0910, 4, bytes(4)), (Command.BWR, 0x0930, 2, b"\x00\x10"),
         (Command.BWR, 0x0934, 2, b"\x00\x0c"), (Command.BWR, 0x0103, 1, b"\x00"),
-        (Command.BWR, 0x0120, 1, b"\x11"), (Command.BWR, 0x0500, 1, b"\x02"),
+        (Command.BWR, 0x0120, 2, b"\x11\x00"), (Command.BWR, 0x0500, 1, b"\x02"),
         (Command.BWR, 0x0500, 1, b"\x00")]
     replies = [f.datagrams[0] for f in frames if f.src[0] & 0x02]
     # the DC writes (rows 10..13) are acknowledged only by the two DC slaves (coupler, drive)
@@ -114,16 +109,6 @@ def test_bring_up_datagrams_follow_soem_detect_and_defaults_order():
     first = [(d.cmd, d.adp, d.ado) for d in requests[17:21]]
     assert first == [(Command.APRD, 0, 0x0140), (Command.APWR, 0, 0x0010),
                      (Command.APWR, 0, 0x0100), (Command.APRD, 0, 0x0010)]
-
-
-def _pcap_records(fileobj):
-    data = fileobj.getvalue()
-    out, pos = [], 24
-    while pos + 16 <= len(data):
-        _s, _u, n, _o = struct.unpack_from("<IIII", data, pos)
-        out.append((0, data[pos + 16:pos + 16 + n]))
-        pos += 16 + n
-    return out
 
 
 def test_process_data_outputs_reach_devices_and_inputs_reach_master():

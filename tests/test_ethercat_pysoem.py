@@ -8,7 +8,10 @@ it is killed after a timeout). Root only (CI runs as root); skipped with the rea
 import pytest
 
 from robocourse.ethercat import demo_bus
+from robocourse.ethercat.frames import Command, decode_frame
+from robocourse.ethercat.master import Master
 from robocourse.ethercat.netns import run_pysoem, why_not
+from robocourse.ethercat.pcap import PcapWriter, read_pcap
 
 pysoem = pytest.importorskip("pysoem", reason="pysoem not installed (it is in requirements.txt)")
 REASON = why_not()
@@ -16,10 +19,12 @@ REASON = why_not()
 
 @pytest.mark.skipif(REASON is not None, reason=str(REASON))
 @pytest.mark.timeout(300)
-def test_soem_scans_maps_and_runs_our_bus_in_op_for_1000_cycles():
-    bus = demo_bus()
-    bus.slaves[1].inputs = 0x3C
-    rep = run_pysoem(bus, cycles=1000)
+def test_soem_scans_maps_and_runs_our_bus_in_op_for_1000_cycles(tmp_path):
+    with PcapWriter(tmp_path / "soem.pcap") as w:
+        bus = demo_bus(capture=w)
+        bus.slaves[1].inputs = 0x3C
+        rep = run_pysoem(bus, cycles=1000)
+    soem_frames = [decode_frame(f) for _, f in read_pcap(tmp_path / "soem.pcap")]
     assert rep["config_init"] == 4
     assert [(s["name"], s["man"], s["id"], s["rev"]) for s in rep["slaves"]] == [
         ("RC1100", 0xA5C, 0x044C2C52, 0x00110000), ("RC1008", 0xA5C, 0x03F03052, 0x00100000),
@@ -38,6 +43,22 @@ def test_soem_scans_maps_and_runs_our_bus_in_op_for_1000_cycles():
     assert [e.state for e in bus.slaves] == [1, 1, 1, 1]
     assert bus.slaves[3].cia_state == "switch on disabled"
     assert rep["bus_replies"] > 1000
+    # the cyclic frame SOEM sends: LRW of the 28-byte image + FRMW of the DC reference's 0x0910
+    last = [f for f in soem_frames if not f.src[0] & 0x02 and f.datagrams[0].cmd == Command.LRW][-1]
+    assert [(d.cmd, d.adp, d.ado, len(d.data)) for d in last.datagrams] == [
+        (Command.LRW, 0, 0, 28), (Command.FRMW, 0x1001, 0x0910, 8)]
+    # our master's first datagrams are SOEM's, field by field
+    with PcapWriter(tmp_path / "ours.pcap") as w:
+        m = Master()
+        m.open(demo_bus(capture=w))
+        m.config_init()
+    ours = [decode_frame(f) for _, f in read_pcap(tmp_path / "ours.pcap")]
+
+    def requests(frames, n):
+        return [(d.cmd, d.adp, d.ado, bytes(d.data)) for f in frames if not f.src[0] & 0x02
+                for d in f.datagrams][:n]
+
+    assert requests(ours, 23) == requests(soem_frames, 23)  # detect, defaults, slave 1 addressing
 
 
 @pytest.mark.skipif(REASON is not None, reason=str(REASON))

@@ -4,9 +4,10 @@
 read_state, write_state, send_processdata, receive_processdata -> working counter,
 expected_wkc, slaves) and ``Slave`` mirrors ``pysoem.CdefSlave`` (name, man, id, rev,
 state, al_status, input, output, write_state, state_check, dc_sync, sdo_read/sdo_write).
-The datagrams are SOEM v1.4.0's, in its order (ecx_detect_slaves, ecx_set_slaves_to_default,
-the per-slave SII reads, ecx_config_map_group's SM/FMMU writes, ecx_configdc), so a capture
-of ours reads like a capture of SOEM.
+The datagrams are SOEM's, in its order (ecx_detect_slaves, ecx_set_slaves_to_default,
+the per-slave addressing and SII reads, ecx_config_map_group's SM/FMMU writes, ecx_configdc),
+with AL control written as 2 bytes as the SOEM inside pysoem 1.1.13 does (v1.4.0 wrote 1);
+a test compares our first datagrams with a capture of the real SOEM, field by field.
 
 Where we differ: no CoE mailbox (our slaves carry their PDO layout in the SII, so
 ``sdo_read``/``sdo_write`` refuse with ``MailboxError``); one group; segments split at slave
@@ -314,9 +315,10 @@ class Master:
         """Find the slaves, address them, read their SII; returns the slave count (0: none)."""
         self.slaves = []
         self._sii_cache.clear()
+        init_ack = _U16.pack(INIT | AL_ERROR)  # 2 bytes, as SOEM 2.x (the one in pysoem) writes
         self._bwr(0x0103, b"\x00")
-        self._bwr(REG_ALCTL, bytes([INIT | AL_ERROR]))
-        self._bwr(REG_ALCTL, bytes([INIT | AL_ERROR]))
+        self._bwr(REG_ALCTL, init_ack)
+        self._bwr(REG_ALCTL, init_ack)
         n, _ = self._one(Command.BRD, 0, 0x0000, 2)
         if n <= 0:
             return 0
@@ -324,7 +326,7 @@ class Master:
                           (REG_FMMU0, bytes(48)), (REG_SM0, bytes(32)), (REG_DCSYNCACT, b"\x00"),
                           (REG_DCSYSTIME, bytes(4)), (0x0930, _U16.pack(0x1000)),
                           (0x0934, _U16.pack(0x0C00)), (0x0103, b"\x00"),
-                          (REG_ALCTL, bytes([INIT | AL_ERROR])), (REG_EEPCFG, b"\x02"),
+                          (REG_ALCTL, init_ack), (REG_EEPCFG, b"\x02"),
                           (REG_EEPCFG, b"\x00")):
             self._bwr(ado, data)
         self.slaves = [Slave(self, i) for i in range(1, n + 1)]
