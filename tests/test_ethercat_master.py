@@ -21,7 +21,7 @@ from robocourse.ethercat.devices import (
 )
 from robocourse.ethercat.esc import AL_SM_WATCHDOG, AL_SYNC_ERROR, OP, SAFEOP
 from robocourse.ethercat.frames import Command, decode_frame
-from robocourse.ethercat.master import EC_NOFRAME, MailboxError, Master, SiiError
+from robocourse.ethercat.master import EC_NOFRAME, MailboxError, MappedObject, Master, SiiError
 from robocourse.ethercat.pcap import PcapWriter, read_pcap
 
 
@@ -73,8 +73,34 @@ def test_config_map_sizes_image_and_expected_wkc_like_soem():
     assert (m.obytes, m.ibytes, m.outputs_wkc, m.inputs_wkc, m.expected_wkc) == (14, 14, 2, 2, 6)
     assert [(s.out_offset, s.obytes, s.in_offset, s.ibytes) for s in m.slaves[1:]] == [
         (0, 0, 14, 1), (0, 1, 0, 0), (1, 13, 15, 13)]
-    assert m.slaves[3].pdo_layout()[0x6041] == ("input", 0, 16)
-    assert m.slaves[3].pdo_layout()[0x607A] == ("output", 2, 32)
+    assert m.slaves[3].pdo_layout()[0x6041] == MappedObject("input", 0, 16, 0x0006, "Statusword")
+    assert m.slaves[3].pdo_layout()[0x607A] == MappedObject("output", 16, 32, 0x0004,
+                                                            "Target position")
+    assert m.slaves[2].pdo_layout()[(0x7010, 1)] == MappedObject("output", 1, 1, 0x0001, "Output")
+
+
+def test_objects_are_read_and_written_by_cia_index_for_an_adapter():
+    bus = demo_bus()
+    m = up(bus)
+    drive, do = m.slaves[3], m.slaves[2]
+    drive.write_object(0x6040, 0x0006)
+    drive.write_object(0x607A, -5000)
+    drive.write_object(0x6060, 8)
+    assert drive.output == drive_outputs(0x0006, -5000, 0, 0, 8)
+    do.write_object(0x7010, 1, subindex=1)
+    do.write_object(0x7070, 1, subindex=1)
+    assert do.output == b"\x82"
+    cycle(m, n=2)
+    assert bus.slaves[2].outputs == 0x82
+    assert drive.read_object(0x6041) == bus.slaves[3].statusword
+    assert cia402_state(drive.read_object(0x6041)) == READY_TO_SWITCH_ON
+    assert drive.read_object(0x6061) == 8
+    with pytest.raises(ValueError, match="is an input"):
+        drive.write_object(0x6041, 1)
+    with pytest.raises(KeyError, match="maps no object 0x6098"):
+        drive.read_object(0x6098)
+    with pytest.raises(ValueError, match="does not fit 16 bits"):
+        drive.write_object(0x6040, 70000)
 
 
 def test_expected_wkc_for_8_io_pairs_is_2_outputs_plus_inputs():

@@ -31,19 +31,21 @@ def _check_counts(args) -> None:
 
 def run_slaveinfo(args) -> int:
     from robocourse.ethercat import demo_bus
-    from robocourse.ethercat.master import Master
+    from robocourse.ethercat.master import Master, MasterError
     from robocourse.ethercat.slaveinfo import slaveinfo_text
 
     _check_counts(args)
     m = Master()
-    if args.ifname:
-        m.open(args.ifname)
-        where = args.ifname
-    else:
-        m.open(demo_bus(args.io_pairs, args.drives))
-        where = "sim (in-process demo bus)"
     try:
+        if args.ifname:
+            m.open(args.ifname)
+            where = args.ifname
+        else:
+            m.open(demo_bus(args.io_pairs, args.drives))
+            where = "sim (in-process demo bus)"
         print(slaveinfo_text(m, where, args.map), end="")
+    except (OSError, MasterError) as e:  # no such interface, no CAP_NET_RAW, a bus that broke
+        raise ValueError(str(e)) from e
     finally:
         m.close()
     return 0

@@ -93,6 +93,49 @@ class Fmmu:
                            self.log_endbit, self.phys_start, 0, self.fmmu_type, 1, 0)
 
 
+_SIGNED = {0x0002, 0x0003, 0x0004, 0x0010, 0x0015}  # INTEGER8/16/32/24/64
+
+
+def o_index(key) -> int:
+    return key[0] if isinstance(key, tuple) else key
+
+
+@dataclass(frozen=True)
+class MappedObject:
+    """Where a PDO entry sits in a slave's process data (SOEM's si_map_sii rows)."""
+
+    direction: str  # "output" (RxPDO) or "input" (TxPDO)
+    bit_offset: int
+    bitlen: int
+    datatype: int
+    name: str = ""
+
+    @property
+    def byte_offset(self) -> int:
+        return self.bit_offset // 8
+
+    def decode(self, data: bytes) -> int:
+        nbytes = (self.bit_offset % 8 + self.bitlen + 7) // 8
+        raw = int.from_bytes(data[self.byte_offset:self.byte_offset + nbytes], "little")
+        v = (raw >> (self.bit_offset % 8)) & ((1 << self.bitlen) - 1)
+        if self.datatype in _SIGNED and v >> (self.bitlen - 1):
+            v -= 1 << self.bitlen
+        return v
+
+    def encode(self, buf: bytearray, value: int) -> None:
+        lo = -(1 << (self.bitlen - 1)) if self.datatype in _SIGNED else 0
+        hi = (1 << (self.bitlen - 1)) - 1 if self.datatype in _SIGNED else (1 << self.bitlen) - 1
+        if not lo <= value <= hi:
+            raise ValueError(f"{self.name or 'object'}: {value} does not fit {self.bitlen} bits "
+                             f"({lo}..{hi})")
+        shift, nbytes = self.bit_offset % 8, (self.bit_offset % 8 + self.bitlen + 7) // 8
+        b0 = self.byte_offset
+        raw = int.from_bytes(buf[b0:b0 + nbytes], "little")
+        mask = ((1 << self.bitlen) - 1) << shift
+        raw = (raw & ~mask) | ((value & ((1 << self.bitlen) - 1)) << shift)
+        buf[b0:b0 + nbytes] = raw.to_bytes(nbytes, "little")
+
+
 @dataclass
 class Slave:
     """One slave as the master knows it (SOEM's ``ec_slavet``; pysoem's ``CdefSlave``)."""
@@ -159,16 +202,45 @@ class Slave:
     def input(self) -> bytes:
         return bytes(self.master.io_map[self.in_offset:self.in_offset + self.ibytes])
 
-    def pdo_layout(self) -> dict[int, tuple[str, int, int]]:
-        """{object index: ('output'|'input', byte offset in this slave's data, bit length)}."""
-        out: dict[int, tuple[str, int, int]] = {}
+    def pdo_layout(self) -> dict[int, MappedObject]:
+        """Every mapped object of this slave, by CiA index (0x6040, 0x6041, 0x7000...), with
+        its direction and bit offset in this slave's ``output``/``input`` bytes."""
+        out: dict[int, MappedObject] = {}
         for kind, pdos in (("output", self.sii.rxpdos), ("input", self.sii.txpdos)):
             bit = 0
             for p in pdos:
                 for e in p.entries:
-                    out.setdefault(e.index, (kind, bit // 8, e.bitlen))
+                    key = e.index if e.subindex == 0 else (e.index, e.subindex)
+                    out.setdefault(key, MappedObject(kind, bit, e.bitlen, e.datatype, e.name))
                     bit += e.bitlen
         return out
+
+    def read_object(self, index, subindex: int = 0) -> int:
+        """A mapped object's value from the process image (e.g. 0x6041 statusword, 0x6064
+        position); after ``receive_processdata`` it is what the slave sent this cycle."""
+        o = self._object(index, subindex)
+        data = self.input if o.direction == "input" else self.output
+        return o.decode(data)
+
+    def write_object(self, index, value: int, subindex: int = 0) -> None:
+        """Set an output object (e.g. 0x6040 controlword, 0x607A target position) in the image;
+        the next ``send_processdata`` carries it."""
+        o = self._object(index, subindex)
+        if o.direction != "output":
+            raise ValueError(f"slave {self.position} ({self.name}): 0x{o_index(index):04X} is an "
+                             "input (TxPDO); only outputs (RxPDO objects) can be written")
+        buf = bytearray(self.output)
+        o.encode(buf, value)
+        self.output = bytes(buf)
+
+    def _object(self, index, subindex: int) -> MappedObject:
+        layout = self.pdo_layout()
+        key = index if subindex == 0 else (index, subindex)
+        if key not in layout:
+            names = ", ".join(f"0x{o_index(k):04X}" for k in layout)
+            raise KeyError(f"slave {self.position} ({self.name}) maps no object 0x{o_index(index):04X}:"
+                           f"{subindex:02X}; it maps: {names}")
+        return layout[key]
 
     def write_state(self) -> int:
         """FPWR AL control = ``self.state`` (pysoem: slave.state = OP_STATE; slave.write_state())."""
