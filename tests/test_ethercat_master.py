@@ -19,9 +19,10 @@ from robocourse.ethercat.devices import (
     drive_inputs,
     drive_outputs,
 )
+from robocourse.ethercat.errors import MailboxError, SiiError
 from robocourse.ethercat.esc import AL_SM_WATCHDOG, AL_SYNC_ERROR, OP, SAFEOP
 from robocourse.ethercat.frames import Command, decode_frame
-from robocourse.ethercat.master import EC_NOFRAME, MailboxError, MappedObject, Master, SiiError
+from robocourse.ethercat.master import EC_NOFRAME, MappedObject, Master
 from robocourse.ethercat.pcap import PcapWriter, read_pcap
 
 

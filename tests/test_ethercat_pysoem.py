@@ -47,18 +47,50 @@ def test_soem_scans_maps_and_runs_our_bus_in_op_for_1000_cycles(tmp_path):
     last = [f for f in soem_frames if not f.src[0] & 0x02 and f.datagrams[0].cmd == Command.LRW][-1]
     assert [(d.cmd, d.adp, d.ado, len(d.data)) for d in last.datagrams] == [
         (Command.LRW, 0, 0, 28), (Command.FRMW, 0x1001, 0x0910, 8)]
-    # our master's first datagrams are SOEM's, field by field
+    # our master's bring-up (config_init, config_map, config_dc, SAFE_OP check) sends SOEM's
+    # datagrams, field by field; only the DC offsets differ (they carry the wall clock)
+    soem_up = bring_up_requests(soem_frames)
+    assert len(soem_up) > 600
+    assert bring_up_requests(our_bring_up(tmp_path, demo_bus)) == soem_up
+
+
+def our_bring_up(tmp_path, make_bus):
     with PcapWriter(tmp_path / "ours.pcap") as w:
         m = Master()
-        m.open(demo_bus(capture=w))
+        m.open(make_bus(capture=w))
         m.config_init()
-    ours = [decode_frame(f) for _, f in read_pcap(tmp_path / "ours.pcap")]
+        m.config_map()
+        m.config_dc()
+        m.state_check(4, 50_000)
+    return [decode_frame(f) for _, f in read_pcap(tmp_path / "ours.pcap")]
 
-    def requests(frames, n):
-        return [(d.cmd, d.adp, d.ado, bytes(d.data)) for f in frames if not f.src[0] & 0x02
-                for d in f.datagrams][:n]
 
-    assert requests(ours, 23) == requests(soem_frames, 23)  # detect, defaults, slave 1 addressing
+def bring_up_requests(frames):
+    """(cmd, adp, ado, len, data) of every request before the first LRW; DC offsets masked."""
+    out = []
+    for f in frames:
+        if f.src[0] & 0x02:
+            continue
+        for d in f.datagrams:
+            if d.cmd == Command.LRW:
+                return out
+            data = None if (d.cmd, d.ado) == (Command.FPWR, 0x0920) else bytes(d.data)
+            out.append((d.cmd, d.adp, d.ado, len(d.data), data))
+    return out
+
+
+@pytest.mark.skipif(REASON is not None, reason=str(REASON))
+@pytest.mark.timeout(300)
+def test_soem_and_our_master_bring_up_a_9_slave_bus_with_identical_datagrams(tmp_path):
+    def make(**kw):
+        return demo_bus(n_io=3, drives=2, **kw)
+
+    with PcapWriter(tmp_path / "soem9.pcap") as w:
+        rep = run_pysoem(make(capture=w), cycles=200)
+    assert (rep["config_init"], rep["config_map"], rep["expected_wkc"]) == (9, 58, 15)
+    assert rep["op"] == 8 and rep["wkc_ok"] == 200
+    soem_up = bring_up_requests([decode_frame(f) for _, f in read_pcap(tmp_path / "soem9.pcap")])
+    assert bring_up_requests(our_bring_up(tmp_path, make)) == soem_up
 
 
 @pytest.mark.skipif(REASON is not None, reason=str(REASON))

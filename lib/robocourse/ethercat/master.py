@@ -26,6 +26,8 @@ from robocourse.rt.loop import PeriodicLoop
 
 from .bus import Bus
 from .dc import line_delays
+from .eeprom import EepromAccess
+from .errors import MailboxError, MasterError
 from .esc import (
     AL_ERROR,
     AL_STATUS_TEXT,
@@ -45,7 +47,6 @@ from .esc import (
     REG_DLSTAT,
     REG_EEPCFG,
     REG_EEPCTL,
-    REG_EEPDAT,
     REG_ESCSUP,
     REG_FMMU0,
     REG_PDICTL,
@@ -56,7 +57,7 @@ from .esc import (
     STATE_NAMES,
 )
 from .frames import Command, Datagram, FrameError, datagram, decode_frame, frame_bytes
-from .sii import SM_TYPE_INPUTS, SM_TYPE_OUTPUTS, Pdo, SiiInfo, parse_categories, parse_header
+from .sii import SM_TYPE_INPUTS, SM_TYPE_OUTPUTS, Pdo, SiiInfo
 from .transport import InProcess, RawSocket
 
 NONE_STATE = 0x00
@@ -65,18 +66,6 @@ EC_NOFRAME = -1
 MAX_LRW_DATA = 1466  # EC_MAXLRWDATA - EC_FIRSTDCDATAGRAM
 EPOCH_2000_S = 946684800
 _U16, _U32, _U64 = struct.Struct("<H"), struct.Struct("<I"), struct.Struct("<Q")
-
-
-class MasterError(RuntimeError):
-    """A bring-up step that failed; the message names the slave, the step and the value."""
-
-
-class MailboxError(MasterError):
-    """An SDO request to a slave without a mailbox (SII word 0x0019 mailbox size 0)."""
-
-
-class SiiError(MasterError):
-    """The SII EEPROM refused a read (word out of range, or the interface stayed busy)."""
 
 
 @dataclass
@@ -167,6 +156,7 @@ class Slave:
     in_offset: int = 0
     fmmus: list[Fmmu] = field(default_factory=list)
     is_lost: bool = False
+    _pdo_detail: tuple[list[Pdo], list[Pdo]] | None = field(default=None, repr=False)
     dc_delay: int = 0
     dc_port_times: tuple[int, int | None] = (0, None)
 
@@ -206,7 +196,7 @@ class Slave:
         """Every mapped object of this slave, by CiA index (0x6040, 0x6041, 0x7000...), with
         its direction and bit offset in this slave's ``output``/``input`` bytes."""
         out: dict[int, MappedObject] = {}
-        for kind, pdos in (("output", self.sii.rxpdos), ("input", self.sii.txpdos)):
+        for kind, pdos in (("output", self.detailed_pdos(True)), ("input", self.detailed_pdos(False))):
             bit = 0
             for p in pdos:
                 for e in p.entries:
@@ -214,6 +204,15 @@ class Slave:
                     out.setdefault(key, MappedObject(kind, bit, e.bitlen, e.datatype, e.name))
                     bit += e.bitlen
         return out
+
+    def detailed_pdos(self, rx: bool) -> list[Pdo]:
+        """RxPDOs (``rx``) or TxPDOs with entry indices, types and names: read from the SII
+        once (acyclic EEPROM traffic, as SOEM's slaveinfo -map does) and kept."""
+        if self._pdo_detail is None:
+            m = self.master
+            self._pdo_detail = (m.sii_pdos(self, rx=False, detail=True),
+                                m.sii_pdos(self, rx=True, detail=True))
+        return self._pdo_detail[1 if rx else 0]
 
     def read_object(self, index, subindex: int = 0) -> int:
         """A mapped object's value from the process image (e.g. 0x6041 statusword, 0x6064
@@ -301,7 +300,7 @@ def state_name(al_status: int) -> str:
     return name + (" + ERROR" if al_status & AL_ERROR else "")
 
 
-class Master:
+class Master(EepromAccess):
     """An EtherCAT master with pysoem's interface. ``open(bus)`` in-process, ``open('veth0')`` raw."""
 
     def __init__(self, retries: int = 3, timeout_us: int = 2000) -> None:
@@ -321,7 +320,6 @@ class Master:
         self.frames_lost = 0
         self._idx = 0
         self._pending: list[tuple[bytes, bytes | None]] = []
-        self._sii_cache: dict[tuple[int, int], bytes] = {}
         self._segs: list[tuple[int, int]] = []
 
     # ---- transport ------------------------------------------------------------------------
@@ -384,9 +382,15 @@ class Master:
 
     # ---- 3.1 ecx_config_init --------------------------------------------------------------
     def config_init(self) -> int:
-        """Find the slaves, address them, read their SII; returns the slave count (0: none)."""
+        """Find the slaves, address them, read their SII; returns the slave count (0: none).
+
+        SOEM's ecx_config_init datagram for datagram: detect, defaults, then per slave its
+        address and the first EEPROM read, the identity words read slave after slave
+        (vendor, serial, product, revision, mailbox), and per slave the ESC features, DL
+        status, port types, INIT check, the SII general/strings/SM/FMMU categories, PRE_OP.
+        """
         self.slaves = []
-        self._sii_cache.clear()
+        self._esi_slave = None
         init_ack = _U16.pack(INIT | AL_ERROR)  # 2 bytes, as SOEM 2.x (the one in pysoem) writes
         self._bwr(0x0103, b"\x00")
         self._bwr(REG_ALCTL, init_ack)
@@ -414,12 +418,20 @@ class Master:
             s.alias = _U16.unpack(self._fp(Command.FPRD, s.config_address, 0x0012, 2)[1])[0]
             estat = _U16.unpack(self._fp(Command.FPRD, s.config_address, REG_EEPCTL, 2)[1])[0]
             s.eep_8byte = bool(estat & 0x0040)
+            self._readeeprom1(s, 0x0008)
+        for field_name, next_word in (("vendor_id", 0x000E), ("serial", 0x000A),
+                                      ("product_code", 0x000C), ("revision", 0x0018)):
+            for s in self.slaves:
+                setattr(s.sii, field_name, self._readeeprom2(s))
+                self._readeeprom1(s, next_word)
         for s in self.slaves:
-            s.sii = parse_header(bytes(16) + self.sii_read(s, 0x08, 0x16) + bytes(70))
+            mbx = self._readeeprom2(s)
+            s.sii.mbx_rx_offset, s.sii.mbx_rx_size = mbx & 0xFFFF, mbx >> 16
             if s.sii.mbx_rx_size:
                 raise MasterError(
                     f"slave {s.position} ({s.sii.vendor_id:#x}:{s.sii.product_code:#x}) has a "
                     "mailbox; this master maps slaves from their SII only (no CoE)")
+        for s in self.slaves:
             adr = s.config_address
             s.has_dc = bool(_U16.unpack(self._fp(Command.FPRD, adr, REG_ESCSUP, 2)[1])[0] & 0x04)
             s.dl_status = _U16.unpack(self._fp(Command.FPRD, adr, REG_DLSTAT, 2)[1])[0]
@@ -431,80 +443,31 @@ class Master:
             s.ptype = self._fp(Command.FPRD, adr, REG_PORTDES, 2)[1][0]
             s.parent = s.position - 1 if s.position > 1 else 0
             self._statecheck_slave(s, INIT, 2000)
-            parse_categories(self.sii_categories(s), s.sii)
+            prev = next((p for p in self.slaves[:s.position - 1]
+                         if (p.man, p.id, p.rev) == (s.man, s.id, s.rev)), None)
+            if prev is not None:  # ecx_lookup_prev_sii: same identity, copy instead of reading
+                s.sii.general, s.sii.strings = prev.sii.general, prev.sii.strings
+                s.sii.sms, s.sii.fmmus = list(prev.sii.sms), list(prev.sii.fmmus)
+            else:
+                self._read_sii_config(s)
             s.sm = [(start, length, ctl | (en << 16)) for start, length, ctl, en, _t in s.sii.sms]
-            s.sm_type = [t for *_x, t in s.sii.sms]
+            s.sm_type = [0] * len(s.sm)
             self._eeprom_to_pdi(s)
             self._fp(Command.FPWR, adr, REG_ALCTL, _U16.pack(PREOP | AL_ERROR))
         self.dc_ref = next((s for s in self.slaves if s.has_dc), None)
         return n
 
-    # ---- SII through the ESC's EEPROM interface (ecx_readeeprom1/2) ------------------------
-    def _eeprom_to_master(self, s: Slave) -> None:
-        if s.eep_pdi:
-            self._fp(Command.FPWR, s.config_address, REG_EEPCFG, b"\x02")
-            self._fp(Command.FPWR, s.config_address, REG_EEPCFG, b"\x00")
-            s.eep_pdi = False
-
-    def _eeprom_to_pdi(self, s: Slave) -> None:
-        if not s.eep_pdi:
-            self._fp(Command.FPWR, s.config_address, REG_EEPCFG, b"\x01")
-            s.eep_pdi = True
-
-    def _eeprom_wait(self, s: Slave) -> int:
-        for _ in range(100):
-            wkc, raw = self._fp(Command.FPRD, s.config_address, REG_EEPCTL, 2)
-            if wkc == 1:
-                st = _U16.unpack(raw)[0]
-                if not st & 0x8000:
-                    return st
-        raise SiiError(f"slave {s.position}: the EEPROM interface (0x0502) stayed busy or silent "
-                       "for 100 polls")
-
-    def sii_read(self, s: Slave, word: int, nwords: int) -> bytes:
-        """``nwords`` SII words from ``word`` on, 4 (or 2) words per EEPROM read as SOEM does."""
-        step = 4 if s.eep_8byte else 2
-        out = bytearray()
-        w = word - word % step
-        while w < word + nwords:
-            block = self._sii_cache.get((s.position, w))
-            if block is None:
-                block = self._sii_block(s, w, step)
-                self._sii_cache[(s.position, w)] = block
-            out += block
-            w += step
-        skip = (word % step) * 2
-        return bytes(out[skip:skip + nwords * 2])
-
-    def _sii_block(self, s: Slave, word: int, step: int) -> bytes:
-        self._eeprom_to_master(s)
-        adr = s.config_address
-        st = self._eeprom_wait(s)
-        if st & 0x7800:
-            self._fp(Command.FPWR, adr, REG_EEPCTL, _U16.pack(0))
-        self._fp(Command.FPWR, adr, REG_EEPCTL, _U16.pack(0x0100) + _U32.pack(word))
-        st = self._eeprom_wait(s)
-        if st & 0x7800:
-            self._fp(Command.FPWR, adr, REG_EEPCTL, _U16.pack(0))
-            raise SiiError(f"slave {s.position}: SII word 0x{word:04X} could not be read (EEPROM "
-                           f"status 0x{st:04X}, error bits 0x{st & 0x7800:04X}): the word is beyond "
-                           "this slave's EEPROM; SII categories end at the 0xFFFF marker")
-        wkc, raw = self._fp(Command.FPRD, adr, REG_EEPDAT, step * 2)
-        if wkc != 1:
-            raise SiiError(f"slave {s.position}: reading EEPROM data 0x0508 got WKC {wkc}")
-        return raw
-
-    def sii_categories(self, s: Slave) -> bytes:
-        """The SII image from word 0 to the end marker (categories walked as ecx_siifind does)."""
-        w = 0x40
-        while True:
-            cat, length = struct.unpack("<HH", self.sii_read(s, w, 2))
-            if cat == 0xFFFF:
-                break
-            w += 2 + length
-            if w > 0x8000:
-                raise SiiError(f"slave {s.position}: SII categories never reach the 0xFFFF marker")
-        return bytes(0x80) + self.sii_read(s, 0x40, w + 1 - 0x40)
+    def _read_sii_config(self, s: Slave) -> None:
+        """General (CoE/FoE/EoE/SoE details, flags, E-bus current), name, SMs, FMMU usage."""
+        g = self.sii_find(s, 30)
+        general = bytearray(16)
+        if g:
+            for off in (0x07, 0x08, 0x09, 0x0A, 0x0D, 0x0E, 0x0F):
+                general[off - 2] = self.sii_byte(s, g + off)
+        s.sii.general = bytes(general)
+        s.sii.strings = [self.sii_string(s, 1)] if self.sii_find(s, 10) else []
+        s.sii.sms = self.sii_sms(s)
+        s.sii.fmmus = self.sii_fmmus(s)
 
     # ---- 3.2 ecx_config_map_group ------------------------------------------------------------
     def config_map(self) -> int:
@@ -513,6 +476,7 @@ class Master:
             raise MasterError("config_map() before config_init() found any slave")
         for s in self.slaves:
             self._statecheck_slave(s, PREOP, 2000)
+        for s in self.slaves:
             self._map_sii(s)
             self._map_sm(s)
         log, bit = 0, 0
@@ -542,6 +506,14 @@ class Master:
         return log
 
     def _map_sii(self, s: Slave) -> None:
+        prev = next((p for p in self.slaves[:s.position - 1] if (p.man, p.id, p.rev) ==
+                     (s.man, s.id, s.rev) and (p.ibits or p.obits)), None)
+        if prev is not None:  # ecx_lookup_mapping: a previous slave of the same kind
+            s.sii.txpdos, s.sii.rxpdos = prev.sii.txpdos, prev.sii.rxpdos
+        else:
+            s.sii.txpdos = self.sii_pdos(s, rx=False)
+            s.sii.rxpdos = self.sii_pdos(s, rx=True)
+        s._pdo_detail = None
         bits = {}
         for kind, pdos in ((SM_TYPE_INPUTS, s.sii.txpdos), (SM_TYPE_OUTPUTS, s.sii.rxpdos)):
             per_sm: dict[int, int] = {}
@@ -609,20 +581,19 @@ class Master:
             return False
         self._bwr(REG_DCTIME0, bytes(4))
         master_time = time.time_ns() - EPOCH_2000_S * 1_000_000_000
-        for s in dc:
+        for k, s in enumerate(dc):
             adr = s.config_address
             t0 = _U32.unpack(self._fp(Command.FPRD, adr, REG_DCTIME0, 4)[1])[0]
             wkc, raw = self._fp(Command.FPRD, adr, REG_DCSOF, 8)
             sof = _U64.unpack(raw)[0] if wkc == 1 else 0
             self._fp(Command.FPWR, adr, REG_DCSYSOFFSET,
                      _U64.pack((master_time - sof) & 0xFFFFFFFFFFFFFFFF))
-            t1 = _U32.unpack(self._fp(Command.FPRD, adr, REG_DCTIME0 + 4, 4)[1])[0]
-            s.dc_port_times = (t0, t1 if s.active_ports & 0x2 else None)
-        delays = line_delays([s.dc_port_times for s in dc])
-        for s, d in zip(dc, delays):
-            s.dc_delay = d
-            if s is not dc[0]:
-                self._fp(Command.FPWR, s.config_address, REG_DCSYSDELAY, _U32.pack(d))
+            ports = [_U32.unpack(self._fp(Command.FPRD, adr, REG_DCTIME0 + 4 * p, 4)[1])[0]
+                     for p in (1, 2, 3)]
+            s.dc_port_times = (t0, ports[0] if s.active_ports & 0x2 else None)
+            if k:  # every DC slave after the reference gets its propagation delay at once
+                s.dc_delay = line_delays([d.dc_port_times for d in dc[:k + 1]])[-1]
+                self._fp(Command.FPWR, adr, REG_DCSYSDELAY, _U32.pack(s.dc_delay))
         self.dc_ref = dc[0]
         return True
 
@@ -702,8 +673,9 @@ class Master:
         self._pending = []
         for i, (lo, hi) in enumerate(self._segs):
             dgs = [Datagram.logical_cmd(Command.LRW, lo, bytes(self.io_map[lo:hi]))]
-            if i == 0 and self.dc_ref is not None:
-                dgs.append(datagram(Command.FRMW, self.dc_ref.config_address, REG_DCSYSTIME, 8))
+            if i == 0 and self.dc_ref is not None:  # carries the last DC time, as SOEM's does
+                dgs.append(datagram(Command.FRMW, self.dc_ref.config_address, REG_DCSYSTIME,
+                                    _U64.pack(self.dc_time)))
             self._pending.append((lo, self.exchange(dgs, retries=0)))
 
     def receive_processdata(self, timeout: int = 2000) -> int:

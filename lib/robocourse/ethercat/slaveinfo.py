@@ -26,7 +26,8 @@ def _dtype(dtype: int, bitlen: int) -> str:
 
 def _map_sii(s: Slave) -> list[str]:
     out = ["PDO mapping according to SII :"]
-    for rx, pdos, base in ((1, s.sii.rxpdos, s.out_offset), (0, s.sii.txpdos, s.in_offset)):
+    for rx, base in ((1, s.out_offset), (0, s.in_offset)):
+        pdos = s.detailed_pdos(bool(rx))
         bit = 0
         for p in pdos:
             out.append(f" SM{p.sm} {'RXPDO' if rx else 'TXPDO'} 0x{p.index:04X} {p.name}")
