@@ -43,6 +43,11 @@ WIRE_NS_PER_BYTE = 80  # 100 Mbit/s: 8 bits x 10 ns
 WIRE_OVERHEAD_BYTES = 24  # preamble + SFD (8), FCS (4), inter-frame gap (12)
 
 
+def frame_size(frame) -> int:
+    """Bytes of ``frame`` on the wire without FCS (before padding)."""
+    return 16 + sum(12 + len(d.data) for d in frame.datagrams)
+
+
 def wire_time_ns(frame_len: int) -> int:
     """Time one frame of ``frame_len`` bytes (no FCS) occupies a 100 Mbit/s line."""
     return (max(frame_len, MIN_FRAME_LEN) + WIRE_OVERHEAD_BYTES) * WIRE_NS_PER_BYTE
@@ -69,6 +74,7 @@ class Bus:
         self.last_error: str | None = None
         self._lose = 0
         self._corrupt: list[int] = []
+        self._wire_free = 0.0
         self._link_up(n)
 
     @staticmethod
@@ -149,9 +155,10 @@ class Bus:
             self.dropped["no slave"] += 1
             return None
         bad = self._corrupt.pop(0) if self._corrupt else 0
-        # arrival time at each slave's port 0 on the way out, at port 1 on the way back
+        # arrival time at each slave's port 0 on the way out, at port 1 on the way back; a
+        # frame cannot leave before the previous one is back (one line, one frame at a time)
         t_in = [0.0] * n
-        t = now
+        t = max(now, self._wire_free)
         for i in range(n):
             t_in[i] = t
             t += self.forward_ns[i]
@@ -173,6 +180,7 @@ class Bus:
             esc.poll(t_in[i])
             esc.t_port0, esc.t_port1 = t_in[i], t_back[i]
             self._slave_pass(esc, plan)
+        self._wire_free = t_exit + wire_time_ns(frame_size(frame))
         frame.src = bytes([frame.src[0] | SLAVE_SOURCE_BIT]) + frame.src[1:]
         for i in range(n):
             slaves[i].application(t_back[i])

@@ -18,6 +18,7 @@ MAX_CORRECTION = 500e-6  # rate correction limit (dimensionless, 500 ppm)
 KP = 0.2  # fraction of the phase error corrected per write, through the rate
 KI = 0.02
 DIFF_CLAMP_NS = 10_000.0  # a single write moves the loop by at most this much error
+MIN_PERIOD_NS = 100_000.0
 
 
 class LocalClock:
@@ -52,8 +53,8 @@ class LocalClock:
         e = max(-DIFF_CLAMP_NS, min(DIFF_CLAMP_NS, diff_ns))
         if self._last_write is None:
             period = None
-        else:
-            period = max(bus_ns - self._last_write, 1_000.0)
+        else:  # writes closer than MIN_PERIOD_NS (bring-up bursts) count as that far apart
+            period = max(bus_ns - self._last_write, MIN_PERIOD_NS)
         self._last_write = bus_ns
         if period is None:
             return

@@ -46,25 +46,18 @@ SW_TARGET_REACHED = 0x0400
 MODE_CSP, MODE_CSV, MODE_CST = 8, 9, 10
 
 
+# the reference's statusword tests, in order: (mask, value, state)
+_STATE_TESTS = ((0x4F, 0x00, NOT_READY), (0x4F, 0x40, SWITCH_ON_DISABLED),
+                (0x6F, 0x21, READY_TO_SWITCH_ON), (0x6F, 0x23, SWITCHED_ON),
+                (0x6F, 0x27, OPERATION_ENABLED), (0x6F, 0x07, QUICK_STOP_ACTIVE),
+                (0x4F, 0x0F, FAULT_REACTION_ACTIVE), (0x4F, 0x08, FAULT))
+
+
 def cia402_state(statusword: int) -> str:
     """The CiA 402 state a statusword reports (the reference's masks)."""
-    sw = statusword
-    if sw & 0x4F == 0x00:
-        return NOT_READY
-    if sw & 0x4F == 0x40:
-        return SWITCH_ON_DISABLED
-    if sw & 0x6F == 0x21:
-        return READY_TO_SWITCH_ON
-    if sw & 0x6F == 0x23:
-        return SWITCHED_ON
-    if sw & 0x6F == 0x27:
-        return OPERATION_ENABLED
-    if sw & 0x6F == 0x07:
-        return QUICK_STOP_ACTIVE
-    if sw & 0x4F == 0x0F:
-        return FAULT_REACTION_ACTIVE
-    if sw & 0x4F == 0x08:
-        return FAULT
+    for mask, value, state in _STATE_TESTS:
+        if statusword & mask == value:
+            return state
     return NOT_READY
 
 

@@ -316,6 +316,7 @@ class Master(EepromAccess):
         self.state = NONE_STATE
         self.dc_time = 0
         self.dc_ref: Slave | None = None
+        self.drift_compensation = True  # FRMW of the reference clock's 0x0910 every cycle
         self.frames_sent = 0
         self.frames_lost = 0
         self._idx = 0
@@ -673,7 +674,8 @@ class Master(EepromAccess):
         self._pending = []
         for i, (lo, hi) in enumerate(self._segs):
             dgs = [Datagram.logical_cmd(Command.LRW, lo, bytes(self.io_map[lo:hi]))]
-            if i == 0 and self.dc_ref is not None:  # carries the last DC time, as SOEM's does
+            if i == 0 and self.dc_ref is not None and self.drift_compensation:
+                # the FRMW carries the last DC time, as SOEM's does
                 dgs.append(datagram(Command.FRMW, self.dc_ref.config_address, REG_DCSYSTIME,
                                     _U64.pack(self.dc_time)))
             self._pending.append((lo, self.exchange(dgs, retries=0)))
