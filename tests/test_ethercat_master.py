@@ -300,9 +300,11 @@ def test_sync0_events_fire_together_on_every_drive():
         s.dc_sync(True, 1_000_000)
     cycle(m, clock, n=3000)
     assert all(e.sync0_active() for e in bus.slaves)
-    k = 2000
-    times = [e.sync0_bus_time(k) for e in bus.slaves]
+    times = [e.next_sync0(clock.now) for e in bus.slaves]
     assert max(times) - min(times) < 100.0
+    assert 0 <= times[0] - clock.now <= 1_000_000  # the next event is within one cycle
+    later = [e.next_sync0(t + 1000) for e, t in zip(bus.slaves, times)]
+    assert all(abs(b - a - 1_000_000) < 200.0 for a, b in zip(times, later))  # 1 ms apart
 
 
 def auto_cw(sw, cw):

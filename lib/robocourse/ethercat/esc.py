@@ -555,6 +555,13 @@ class Esc:
             local -= 1 << 64
         return self.clock.bus_time_of_local(float(local))
 
+    def next_sync0(self, bus_ns: float) -> float:
+        """Bus time of this slave's first SYNC0 event at or after ``bus_ns``."""
+        start = _U64.unpack_from(self.mem, REG_DCSTART0)[0]
+        cycle = _U32.unpack_from(self.mem, REG_DCCYCLE0)[0]
+        k = max(0, -(-(self.system_time(bus_ns) - start) // cycle))
+        return self.sync0_bus_time(k)
+
     # ---- the application (devices override) ---------------------------------------------
     def application(self, now_ns: float) -> None:
         """Runs after every frame: read outputs, compute, write inputs. Nothing by default."""

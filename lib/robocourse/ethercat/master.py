@@ -144,7 +144,6 @@ class Slave:
     active_ports: int = 0
     parent: int = 0
     state: int = NONE_STATE
-    al_status: int = 0
     al_status_code: int = 0
     sm: list[tuple[int, int, int]] = field(default_factory=list)  # start, length, flags
     sm_type: list[int] = field(default_factory=list)
@@ -176,6 +175,11 @@ class Slave:
     @property
     def rev(self) -> int:
         return self.sii.revision
+
+    @property
+    def al_status(self) -> int:
+        """pysoem's name for the AL status code (0x0134) read with the state."""
+        return self.al_status_code
 
     @property
     def output(self) -> bytes:
@@ -604,8 +608,8 @@ class Master(EepromAccess):
         while True:
             wkc, raw = self._fp(Command.FPRD, s.config_address, REG_ALSTAT, 6)
             if wkc == 1:
-                s.al_status, _, s.al_status_code = struct.unpack("<HHH", raw)
-                s.state = s.al_status & 0x1F
+                status, _, s.al_status_code = struct.unpack("<HHH", raw)
+                s.state = status & 0x1F
                 s.is_lost = False
             else:
                 s.state = NONE_STATE
@@ -626,7 +630,7 @@ class Master(EepromAccess):
             self.read_state()
             return self._lowest()
         for s in self.slaves:
-            s.state = s.al_status = expected
+            s.state = expected
         return state
 
     def _lowest(self) -> int:
@@ -640,14 +644,14 @@ class Master(EepromAccess):
             st = _U16.unpack(raw)[0]
             if st & 0x0F in STATE_NAMES and not st & AL_ERROR and bin(st & 0x0F).count("1") == 1:
                 for s in self.slaves:
-                    s.state = s.al_status = st
+                    s.state = st
                     s.al_status_code = 0
                 return st & 0x0F
         for s in self.slaves:
             wkc, raw = self._fp(Command.FPRD, s.config_address, REG_ALSTAT, 6)
             if wkc == 1:
-                s.al_status, _, s.al_status_code = struct.unpack("<HHH", raw)
-                s.state = s.al_status & 0x1F
+                status, _, s.al_status_code = struct.unpack("<HHH", raw)
+                s.state = status & 0x1F
             else:
                 s.state = NONE_STATE
         return self._lowest()
@@ -702,7 +706,7 @@ class Master(EepromAccess):
         """Which slaves explain a working counter below ``expected_wkc``."""
         self.read_state()
         missing = tuple(s.position for s in self.slaves if s.state == NONE_STATE)
-        bad = tuple((s.position, s.al_status, s.al_status_code) for s in self.slaves
+        bad = tuple((s.position, s.state, s.al_status_code) for s in self.slaves
                     if s.state != NONE_STATE and s.state != OP)
         return WkcDiagnosis(wkc, self.expected_wkc, missing, bad)
 
@@ -790,7 +794,7 @@ class Master(EepromAccess):
         raise MasterError("not every slave reached OP: " + self._states_text())
 
     def _states_text(self) -> str:
-        return ", ".join(f"slave {s.position} ({s.name}) {state_name(s.al_status)} code "
+        return ", ".join(f"slave {s.position} ({s.name}) {state_name(s.state)} code "
                          f"0x{s.al_status_code:04X}" for s in self.slaves)
 
     def run_cyclic(self, cycles: int, period_ns: int = 1_000_000, on_cycle=None, wait=None):
