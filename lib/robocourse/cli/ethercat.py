@@ -35,7 +35,8 @@ def run_slaveinfo(args) -> int:
     from robocourse.ethercat.slaveinfo import slaveinfo_text
 
     _check_counts(args)
-    m = Master()
+    # SOEM waits 2 ms for a reply (EC_TIMEOUTRET); a raw interface on a busy laptop gets 20
+    m = Master(timeout_us=20_000 if args.ifname else 2000)
     try:
         if args.ifname:
             m.open(args.ifname)

@@ -817,6 +817,3 @@ class Master(EepromAccess):
         result = PeriodicLoop(period_ns, cycles, wait).run(cycle)
         return result, faults
 
-
-def pdo_names(pdos: list[Pdo]) -> list[str]:
-    return [f"0x{e.index:04X}:{e.subindex:02X} {e.bitlen} bits" for p in pdos for e in p.entries]
