@@ -387,3 +387,32 @@ def test_capture_round_trips_through_pcap(tmp_path):
     assert last.datagrams[0].cmd == Command.LRW and last.datagrams[0].wkc == 6
     assert last.datagrams[1].cmd == Command.FRMW and last.datagrams[1].wkc == 2
     assert OP == 8
+
+
+def test_sm_programmed_unlike_the_pdo_map_keeps_the_slave_out_of_safeop_with_0x001d():
+    m = Master()
+    m.open(demo_bus())
+    m.config_init()
+    m.config_map()
+    do = m.slaves[2]
+    start, _length, flags = do.sm[0]
+    do.sm[0] = (start, 2, flags)  # 2 bytes where the RxPDOs map 8 bits
+    m._fp(Command.FPWR, do.config_address, 0x0120, b"\x02\x00")  # back to PRE_OP
+    m._map_sm(do)
+    do.state = SAFEOP
+    do.write_state()
+    assert m.state_check(SAFEOP, 2000) == 2
+    assert (do.state, do.al_status) == (0x12, 0x001D)
+    assert "slave 3 (RC2008) PRE_OP + ERROR code 0x001D" in m._states_text()
+
+
+def test_broadcast_read_write_writes_what_arrives_and_ors_in_the_old_contents():
+    from robocourse.ethercat.frames import datagram, frame_bytes
+
+    bus = Bus([Coupler(), DigitalInputs()])
+    bus.slaves[0].mem[0x0200] = 0x01
+    bus.slaves[1].mem[0x0200] = 0x02
+    d = decode_frame(bus.process(frame_bytes([datagram(Command.BRW, 0, 0x0200, b"\x40")])))
+    assert (d.datagrams[0].wkc, d.datagrams[0].data[0]) == (6, 0x43)
+    # each slave writes the data as it reaches it (slave 2 sees slave 1's OR already)
+    assert [s.mem[0x0200] for s in bus.slaves] == [0x40, 0x41]
