@@ -3,17 +3,19 @@
 ``Master`` mirrors ``pysoem.Master`` (open, config_init, config_map, config_dc, state_check,
 read_state, write_state, send_processdata, receive_processdata -> working counter,
 expected_wkc, slaves) and ``Slave`` mirrors ``pysoem.CdefSlave`` (name, man, id, rev,
-state, al_status, input, output, write_state, state_check, dc_sync, sdo_read/sdo_write).
-The datagrams are SOEM's, in its order (ecx_detect_slaves, ecx_set_slaves_to_default,
-the per-slave addressing and SII reads, ecx_config_map_group's SM/FMMU writes, ecx_configdc),
-with AL control written as 2 bytes as the SOEM inside pysoem 1.1.13 does (v1.4.0 wrote 1);
-a test compares our first datagrams with a capture of the real SOEM, field by field.
+state, al_status = the AL status code, input, output, write_state, state_check, dc_sync,
+sdo_read/sdo_write). The datagrams are SOEM's, in its order (ecx_detect_slaves,
+ecx_set_slaves_to_default, the per-slave addressing and SII reads through SOEM's EEPROM
+cache, ecx_config_map_group's SM/FMMU writes, ecx_configdc), with AL control written as
+2 bytes as the SOEM inside pysoem 1.1.13 does (v1.4.0 wrote 1): a test captures both masters
+on the same kind of bus and finds every bring-up datagram equal (DC offsets aside).
 
 Where we differ: no CoE mailbox (our slaves carry their PDO layout in the SII, so
 ``sdo_read``/``sdo_write`` refuse with ``MailboxError``); one group; segments split at slave
 boundaries; ``check()`` returns SOEM simple_test's ecatcheck messages instead of printing them.
-For a ros2_control adapter, ``Slave.output``/``Slave.input`` are the slave's slices of the
-process image and ``pdo_layout()`` names the offset of every mapped object (0x6040, 0x6041...).
+For a ros2_control adapter: ``Slave.read_object(0x6041)`` / ``write_object(0x6040, cw)`` reach
+any mapped object by its CiA index, ``pdo_layout()`` lists them, ``diagnose(wkc)`` says which
+slave a short working counter comes from, ``drift_compensation`` switches the DC FRMW.
 """
 
 from __future__ import annotations
