@@ -8,6 +8,7 @@ it is killed after a timeout). Root only (CI runs as root); skipped with the rea
 import pytest
 
 from robocourse.ethercat import demo_bus
+from robocourse.ethercat.errors import SdoError
 from robocourse.ethercat.frames import Command, decode_frame
 from robocourse.ethercat.master import Master
 from robocourse.ethercat.netns import run_pysoem, why_not
@@ -112,3 +113,44 @@ def test_our_master_over_raw_ethernet_scans_the_bus_like_slaveinfo():
     assert r.returncode == 0, r.stderr
     assert f"ec_init on {v.master_if} succeeded.\n4 slaves found and configured.\n" in r.stdout
     assert "Calculated workcounter 6\n" in r.stdout and " Name:RC-Servo\n" in r.stdout
+
+
+@pytest.mark.skipif(REASON is not None, reason=str(REASON))
+@pytest.mark.timeout(300)
+def test_soem_maps_a_coe_drive_by_sdo_reads_and_writes_objects_and_gets_aborts(tmp_path):
+    from robocourse.ethercat.bus import Bus
+    from robocourse.ethercat.devices import Cia402Drive, Coupler, DigitalInputs, DigitalOutputs
+
+    def make(**kw):
+        return Bus([Coupler(), DigitalInputs(), DigitalOutputs(), Cia402Drive(mailbox=True)], **kw)
+
+    with PcapWriter(tmp_path / "soem_coe.pcap") as w:
+        bus = make(capture=w)
+        rep = run_pysoem(bus, cycles=200, sdo_slave=4)
+    assert rep["slaves"][3]["name"] == "RC-Servo-CoE"
+    assert rep["config_map"] == 28 and rep["expected_wkc"] == 6
+    assert rep["sdo_1018_01"] == "5c0a0000"  # vendor 0x00000A5C, little-endian
+    assert rep["sdo_6061"] == "09"  # after sdo_write(0x6060, 0, b"\x09")
+    assert rep["sdo_missing"] == ("SdoError abort 0x06020000: The object does not exist in the "
+                                  "object directory")
+    assert rep["op"] == 8 and rep["wkc_ok"] == 200
+    soem = [decode_frame(f) for _, f in read_pcap(tmp_path / "soem_coe.pcap")]
+    uploads = [(d.data[9] | d.data[10] << 8, d.data[11]) for f in soem if not f.src[0] & 0x02
+               for d in f.datagrams if d.cmd == Command.FPWR and d.ado == 0x1000]
+    assert uploads[:3] == [(0x1C00, 0), (0x1C00, 3), (0x1C12, 0)]  # SOEM's ecx_readPDOmap
+    # our master, doing what the probe did, sends the same datagrams (SDOs included)
+    with PcapWriter(tmp_path / "ours.pcap") as w:
+        m = Master()
+        m.open(make(capture=w))
+        m.config_init()
+        m.config_map()
+        m.config_dc()
+        m.state_check(4, 50_000)
+        s = m.slaves[3]
+        s.sdo_read(0x1018, 1)
+        s.sdo_write(0x6060, 0, bytes([9]))
+        s.sdo_read(0x6061, 0)
+        with pytest.raises(SdoError):
+            s.sdo_read(0x2000, 0)
+    ours = [decode_frame(f) for _, f in read_pcap(tmp_path / "ours.pcap")]
+    assert bring_up_requests(ours) == bring_up_requests(soem)

@@ -12,12 +12,14 @@ def register(sub):
     i.add_argument("--map", action="store_true", help="print the PDO mapping (slaveinfo -map)")
     i.add_argument("--io-pairs", type=int, default=1, help="simulated bus: DI/DO terminal pairs")
     i.add_argument("--drives", type=int, default=1, help="simulated bus: CiA 402 drives")
+    i.add_argument("--coe", action="store_true", help="simulated bus: drives with a CoE mailbox")
     i.set_defaults(func=run_slaveinfo)
     c = s.add_parser("capture", help="write a pcap (Wireshark) of a bring-up and N cycles")
     c.add_argument("file", metavar="FILE.pcap")
     c.add_argument("--cycles", type=int, default=100, help="process-data cycles after OP")
     c.add_argument("--io-pairs", type=int, default=1)
     c.add_argument("--drives", type=int, default=1)
+    c.add_argument("--coe", action="store_true", help="drives with a CoE mailbox (SDO traffic)")
     c.set_defaults(func=run_capture)
     p.set_defaults(func=lambda args: p.print_help() or 2)
 
@@ -42,7 +44,7 @@ def run_slaveinfo(args) -> int:
             m.open(args.ifname)
             where = args.ifname
         else:
-            m.open(demo_bus(args.io_pairs, args.drives))
+            m.open(demo_bus(args.io_pairs, args.drives, args.coe))
             where = "sim (in-process demo bus)"
         print(slaveinfo_text(m, where, args.map), end="")
     except (OSError, MasterError) as e:  # no such interface, no CAP_NET_RAW, a bus that broke
@@ -59,7 +61,7 @@ def run_capture(args) -> int:
 
     _check_counts(args)
     with PcapWriter(args.file) as w:
-        bus = demo_bus(args.io_pairs, args.drives, capture=w)
+        bus = demo_bus(args.io_pairs, args.drives, args.coe, capture=w)
         m = Master()
         m.open(bus)
         m.bring_up()

@@ -6,9 +6,12 @@ images), ``esc`` (a slave controller: registers, FMMUs, SyncManagers, AL state m
 chain with delays and injected faults), ``transport`` (in-process or raw Ethernet),
 ``master`` (SOEM's bring-up with pysoem's API).
 
-Our slaves have no CoE mailbox: their PDO layout is in the SII TxPDO/RxPDO categories, which
-is what SOEM's ``ecx_map_sii`` reads for mailbox-less slaves (real EL1008/EL2008 terminals
-work that way too), so a real SOEM master maps the bus without any SDO traffic.
+Two ways a drive tells a master its PDO layout, both mapped by a real SOEM (pysoem) in the
+tests: ``Cia402Drive()`` has no mailbox and lists its PDOs in the SII TxPDO/RxPDO categories
+(SOEM's ``ecx_map_sii``; real EL1008/EL2008 terminals work that way too), and
+``Cia402Drive(mailbox=True)`` has a CoE mailbox with an object dictionary (expedited SDO
+upload/download, aborts) whose 0x1C12/0x1C13 assignment SOEM reads by SDO
+(``ecx_readPDOmap``), as it does on a real servo drive.
 """
 
 from .bus import Bus
@@ -22,10 +25,11 @@ __all__ = ["BOOT", "INIT", "OP", "PREOP", "SAFEOP", "Bus", "Cia402Drive", "Comma
            "MasterError", "Slave", "decode_frame", "encode_frame"]
 
 
-def demo_bus(n_io: int = 1, drives: int = 1, **bus_kw) -> Bus:
-    """Coupler, ``n_io`` pairs of digital input/output terminals, ``drives`` CiA 402 drives."""
+def demo_bus(n_io: int = 1, drives: int = 1, coe: bool = False, **bus_kw) -> Bus:
+    """Coupler, ``n_io`` pairs of digital input/output terminals, ``drives`` CiA 402 drives
+    (with a CoE mailbox when ``coe``)."""
     slaves = [Coupler()]
     for _ in range(n_io):
         slaves += [DigitalInputs(), DigitalOutputs()]
-    slaves += [Cia402Drive() for _ in range(drives)]
+    slaves += [Cia402Drive(mailbox=coe) for _ in range(drives)]
     return Bus(slaves, **bus_kw)

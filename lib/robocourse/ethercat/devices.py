@@ -7,9 +7,10 @@ with the position/velocity/torque PDOs of the reference) driving a motor model.
 
 Where we differ from the real terminals: our EL1008/EL2008-likes run a firmware state
 machine (checked transitions, SM checks, SM watchdog drops to SAFE_OP) where the real ones use
-device emulation; our drive has no mailbox: its fixed PDO layout sits in the SII TxPDO/RxPDO
-categories, which is enough for SOEM's ``ecx_map_sii`` to map it (see the report in
-``robocourse.ethercat``). The vendor ID is ours, not Beckhoff's.
+device emulation. The drive comes in two builds: without a mailbox (its fixed PDO layout
+in the SII TxPDO/RxPDO categories, mapped by SOEM's ``ecx_map_sii``) and with a CoE mailbox
+(``mailbox=True``: an object dictionary 0x1000-0x1C13 + the 0x6000 objects it uses, expedited
+SDO only, mapped by SOEM's SDO reads of 0x1C12/0x1C13). The vendor ID is ours, not Beckhoff's.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import math
 import struct
 from dataclasses import dataclass
 
+from .coe import CoeServer, OdEntry
 from .esc import ET1100, ET1200, OP, Esc
 from .sii import (
     FMMU_INPUTS,
@@ -89,6 +91,15 @@ DRIVE = DeviceDescription(
          SyncManagerConfig(0x1100, 0x64, SM_TYPE_OUTPUTS), SyncManagerConfig(0x1180, 0x20, SM_TYPE_INPUTS)),
     fmmus=(FMMU_OUTPUTS, FMMU_INPUTS), rxpdos=(Pdo(0x1600, 2, _RX, "RxPDO"),),
     txpdos=(Pdo(0x1A00, 3, _TX, "TxPDO"),), pdi_control=0x0C08)
+DRIVE_COE = DeviceDescription(
+    VENDOR_ID, 0x00402002, 0x00010000, "RC-Servo-CoE", "RC-Servo CiA 402 drive with CoE (sim)",
+    "Drive",
+    sms=(SyncManagerConfig(0x1000, 0x26, SM_TYPE_MBX_OUT, 128),
+         SyncManagerConfig(0x1080, 0x22, SM_TYPE_MBX_IN, 128),
+         SyncManagerConfig(0x1100, 0x64, SM_TYPE_OUTPUTS), SyncManagerConfig(0x1180, 0x20, SM_TYPE_INPUTS)),
+    fmmus=(FMMU_OUTPUTS, FMMU_INPUTS), rxpdos=(Pdo(0x1600, 2, _RX, "RxPDO"),),
+    txpdos=(Pdo(0x1A00, 3, _TX, "TxPDO"),), pdi_control=0x0C08, mbx_protocols=0x0004,
+    coe_details=0x05)
 _DRIVE_OUT = struct.Struct("<HiihB")  # controlword, target pos, target vel, target torque, mode
 _DRIVE_IN = struct.Struct("<HiihB")  # statusword, position, velocity, torque, mode display
 
@@ -155,7 +166,7 @@ class MotorModel:
         return counts * 2 * math.pi / self.counts_per_rev
 
 
-class Cia402Drive(Esc):
+class Cia402Drive(CoeServer, Esc):
     """A CiA 402 servo drive on SM2 (RxPDO 0x1600) / SM3 (TxPDO 0x1A00) with a motor.
 
     Controlword/statusword follow the CiA 402 state machine of the reference (shutdown 0x06,
@@ -166,8 +177,8 @@ class Cia402Drive(Esc):
 
     def __init__(self, motor: MotorModel | None = None, *, kp: float = 40.0, kd: float = 0.6,
                  kv: float = 0.05, max_torque: float = 2.0,
-                 following_error_window: int = 1 << 17, **kw) -> None:
-        super().__init__(DRIVE, ET1100, port_descriptor=0x0F, **kw)
+                 following_error_window: int = 1 << 17, mailbox: bool = False, **kw) -> None:
+        super().__init__(DRIVE_COE if mailbox else DRIVE, ET1100, port_descriptor=0x0F, **kw)
         self.motor = motor or MotorModel()
         self.kp, self.kd, self.kv, self.max_torque = kp, kd, kv, max_torque
         self.following_error_window = following_error_window
@@ -179,6 +190,55 @@ class Cia402Drive(Esc):
         self.torque = 0.0
         self._last_cw = 0
         self._last_ns: float | None = None
+        self.od = self._object_dictionary()
+
+    def _object_dictionary(self) -> dict[tuple[int, int], OdEntry]:
+        """0x1000-0x1C13 and the 0x6000 objects this drive uses (CoE builds only)."""
+        d = self.desc
+
+        def const(v: int, size: int) -> OdEntry:
+            return OdEntry(size, lambda: v)
+
+        def setattr_(name: str):
+            return lambda v: setattr(self, name, v)
+
+        od = {(0x1000, 0): const(0x00020192, 4), (0x1018, 0): const(4, 1),
+              (0x1018, 1): const(d.vendor_id, 4), (0x1018, 2): const(d.product_code, 4),
+              (0x1018, 3): const(d.revision, 4), (0x1018, 4): const(d.serial, 4),
+              (0x1C00, 0): const(len(d.sms), 1)}
+        for i, sm in enumerate(d.sms):
+            od[(0x1C00, i + 1)] = const(sm.sm_type, 1)
+        for assign, pdos in ((0x1C12, d.rxpdos), (0x1C13, d.txpdos)):
+            od[(assign, 0)] = const(len(pdos), 1)
+            for k, p in enumerate(pdos):
+                od[(assign, k + 1)] = const(p.index, 2)
+                od[(p.index, 0)] = const(len(p.entries), 1)
+                for j, e in enumerate(p.entries):
+                    od[(p.index, j + 1)] = const(e.index << 16 | e.subindex << 8 | e.bitlen, 4)
+        od.update({
+            (0x6040, 0): OdEntry(2, lambda: self.controlword),
+            (0x6041, 0): OdEntry(2, lambda: self.statusword),
+            (0x6060, 0): OdEntry(1, lambda: self.mode_display, setattr_("mode_display"), True),
+            (0x6061, 0): OdEntry(1, lambda: self.mode_display, None, True),
+            (0x6064, 0): OdEntry(4, lambda: self.motor.counts, None, True),
+            (0x6065, 0): OdEntry(4, lambda: self.following_error_window,
+                                 setattr_("following_error_window")),
+            (0x606C, 0): OdEntry(4, lambda: self._vel_counts(), None, True),
+            (0x6077, 0): OdEntry(2, lambda: int(round(self.torque / self.motor.rated_torque * 1000)),
+                                 None, True),
+            (0x607A, 0): OdEntry(4, lambda: self.target_position, None, True),
+            (0x603F, 0): OdEntry(2, lambda: self.error_code)})
+        return od
+
+    def _vel_counts(self) -> int:
+        return int(round(self.motor.velocity / (2 * math.pi) * self.motor.counts_per_rev))
+
+    def mailbox_received(self, data: bytes) -> None:
+        """A CoE request in the write mailbox: take it, answer in the read mailbox."""
+        self._release_write_mailbox()
+        reply = self.coe_reply(data)
+        if reply is not None:
+            self.mailbox_send(reply)
 
     @property
     def statusword(self) -> int:

@@ -11,3 +11,13 @@ class MailboxError(MasterError):
 
 class SiiError(MasterError):
     """The SII EEPROM refused a read (word out of range, or the interface stayed busy)."""
+
+
+class SdoError(MasterError):
+    """A slave aborted an SDO transfer (pysoem.SdoError: slave, index, subindex, abort code)."""
+
+    def __init__(self, slave: int, index: int, subindex: int, abort_code: int, desc: str) -> None:
+        super().__init__(f"slave {slave}: SDO 0x{index:04X}:{subindex:02X} aborted with "
+                         f"0x{abort_code:08X} ({desc})")
+        self.slave_pos, self.index, self.subindex = slave, index, subindex
+        self.abort_code, self.desc = abort_code, desc

@@ -20,7 +20,14 @@ import struct
 from dataclasses import dataclass
 
 from .dc import LocalClock, encode_diff
-from .sii import SM_TYPE_INPUTS, SM_TYPE_OUTPUTS, DeviceDescription, build_sii
+from .sii import (
+    SM_TYPE_INPUTS,
+    SM_TYPE_MBX_IN,
+    SM_TYPE_MBX_OUT,
+    SM_TYPE_OUTPUTS,
+    DeviceDescription,
+    build_sii,
+)
 
 # AL states (ec_state)
 INIT, PREOP, BOOT, SAFEOP, OP = 0x01, 0x02, 0x03, 0x04, 0x08
@@ -104,7 +111,8 @@ class Esc:
     __slots__ = ("desc", "model", "mem", "sii", "clock", "device_emulation", "ports",
                  "link", "t_port0", "t_port1", "now_ns", "_fmmus", "_sms", "_holes",
                  "_ro", "_eep_busy", "_eep_err", "_eep_cmd", "_out_write_ns", "_sm_blocked",
-                 "_sm_roles", "wd_expired", "_has_outputs", "_wd_ns", "station", "alias_active")
+                 "_sm_roles", "wd_expired", "_has_outputs", "_wd_ns", "station", "alias_active",
+                 "_mbx_full", "_has_mbx")
 
     def __init__(self, desc: DeviceDescription, model: EscModel = ET1100, *,
                  device_emulation: bool = False, port_descriptor: int = 0x0F,
@@ -135,6 +143,8 @@ class Esc:
         self.wd_expired = False
         self._has_outputs = desc.output_bits > 0
         self._wd_ns = 0.0
+        self._mbx_full = [False] * model.sms  # 1-buffer (mailbox) SMs: buffer full (status bit 3)
+        self._has_mbx = False
         self.station = 0  # 0x0010, cached for configured addressing
         self.alias_active: int | None = None  # 0x0012 when DL control 0x0103 bit 0 is set
         self.power_on()
@@ -203,7 +213,10 @@ class Esc:
         end = ado + n
         if ado < 0x0A00:
             self._refresh(ado, end)
-        return bytes(self.mem[ado:end])
+        out = bytes(self.mem[ado:end])
+        if self._has_mbx:
+            self._mailbox_access(ado, end, False)
+        return out
 
     def write(self, ado: int, data: bytes | bytearray) -> bool:
         """An ECAT write; False (no working counter) when this ESC has no such memory."""
@@ -218,6 +231,8 @@ class Esc:
             mem[ado:end] = data
             if self._sms:
                 self._note_output_write(ado, end)
+                if self._has_mbx:
+                    self._mailbox_access(ado, end, True)
             return True
         saved = [(lo, bytes(mem[lo:hi])) for lo, hi in self._ro if ado < hi and lo < end]
         mem[ado:end] = data
@@ -283,7 +298,47 @@ class Esc:
             if ado < stop and start < end:
                 if i in self._sm_blocked or ecat_writes != write:
                     return False
+                if self._has_mbx and self._is_mailbox(i) and self._mbx_full[i] == write:
+                    return False  # a full write mailbox takes nothing, an empty read one gives nothing
         return True
+
+    def _is_mailbox(self, i: int) -> bool:
+        return self.mem[REG_SM0 + 8 * i + 4] & 0x03 == 0x02
+
+    def _mailbox_access(self, ado: int, end: int, write: bool) -> None:
+        """After an ECAT access: writing a mailbox's last byte fills it (the application gets
+        it), reading a mailbox's last byte empties it (SyncManager 1-buffer mode)."""
+        for start, stop, _w, i in self._sms:
+            if ado < stop and start < end and end >= stop and self._is_mailbox(i):
+                self._set_mbx_full(i, write)
+                if write:
+                    self.mailbox_received(bytes(self.mem[start:stop]))
+
+    def _set_mbx_full(self, i: int, full: bool) -> None:
+        self._mbx_full[i] = full
+        reg = REG_SM0 + 8 * i + 5
+        self.mem[reg] = (self.mem[reg] | 0x08) if full else (self.mem[reg] & ~0x08)
+
+    def mailbox_send(self, data: bytes) -> bool:
+        """The application puts a reply in the read mailbox (the first SM of type 2)."""
+        for start, stop, ecat_writes, i in self._sms:
+            if not ecat_writes and self._is_mailbox(i):
+                if self._mbx_full[i]:
+                    return False
+                self.mem[start:stop] = data[:stop - start].ljust(stop - start, b"\x00")
+                self._set_mbx_full(i, True)
+                return True
+        return False
+
+    def mailbox_received(self, data: bytes) -> None:
+        """The application reads a mailbox the master wrote; devices with a mailbox override it.
+        The write mailbox is free again once the application has taken the data."""
+        self._release_write_mailbox()
+
+    def _release_write_mailbox(self) -> None:
+        for _s, _e, ecat_writes, i in self._sms:
+            if ecat_writes and self._is_mailbox(i):
+                self._set_mbx_full(i, False)
 
     def _note_output_write(self, ado: int, end: int) -> None:
         for start, stop, ecat_writes, i in self._sms:
@@ -298,6 +353,7 @@ class Esc:
             if act & 1 and length:
                 sms.append((start, start + length, bool(ctl & 0x04), i))
         self._sms = sms
+        self._has_mbx = any(self._is_mailbox(i) for *_x, i in sms)
 
     def _reload_fmmus(self) -> None:
         out = []
@@ -334,7 +390,9 @@ class Esc:
             self._reload_fmmus()
         if ado < 0x0880 and REG_SM0 < end:
             for i in range(self.model.sms):
-                self.mem[REG_SM0 + 8 * i + 5] = 0  # status and PDI control are not ECAT-writable
+                if ado <= REG_SM0 + 8 * i + 5 < end:  # (re)programmed: the buffer is empty
+                    self._mbx_full[i] = False
+                self.mem[REG_SM0 + 8 * i + 5] = 0x08 if self._mbx_full[i] else 0
                 self.mem[REG_SM0 + 8 * i + 7] = 1 if i in self._sm_blocked else 0
             self._reload_sms()
         if self.clock is not None and ado < 0x0940 and REG_DCTIME0 < end:
@@ -436,6 +494,13 @@ class Esc:
     def check_transition(self, state: int, req: int) -> int:
         """The application's checks before going up: PREOP->SAFEOP needs SM2/SM3 as the
         PDO map says (0x001D outputs, 0x001E inputs). Devices may add their own."""
+        if state == INIT and req == PREOP:
+            for i, sm in enumerate(self.desc.sms):
+                if sm.sm_type in (SM_TYPE_MBX_OUT, SM_TYPE_MBX_IN) and sm.enable:
+                    start, length, ctl, act = self.sm_registers(i)
+                    if (start, length, ctl & 0x0F, act & 1) != (sm.start, self.desc.sm_length(i),
+                                                                 sm.control & 0x0F, 1):
+                        return AL_INVALID_MBX_CONFIG
         if state == PREOP and req == SAFEOP:
             for i, sm in enumerate(self.desc.sms):
                 if sm.sm_type not in (SM_TYPE_OUTPUTS, SM_TYPE_INPUTS):
@@ -472,6 +537,8 @@ class Esc:
         inputs from SAFE_OP, outputs only in OP."""
         blocked = set()
         for i, role in self._sm_roles.items():
+            if role in (SM_TYPE_MBX_OUT, SM_TYPE_MBX_IN) and state in (INIT, BOOT):
+                blocked.add(i)
             if role == SM_TYPE_INPUTS and _RANK.get(state, 0) < _RANK[SAFEOP]:
                 blocked.add(i)
             if role == SM_TYPE_OUTPUTS and state != OP:

@@ -10,8 +10,10 @@ cache, ecx_config_map_group's SM/FMMU writes, ecx_configdc), with AL control wri
 2 bytes as the SOEM inside pysoem 1.1.13 does (v1.4.0 wrote 1): a test captures both masters
 on the same kind of bus and finds every bring-up datagram equal (DC offsets aside).
 
-Where we differ: no CoE mailbox (our slaves carry their PDO layout in the SII, so
-``sdo_read``/``sdo_write`` refuse with ``MailboxError``); one group; segments split at slave
+CoE: expedited SDO transfers over the mailbox (``sdo_read``/``sdo_write``, SOEM's
+ecx_SDOread/ecx_SDOwrite) and the PDO map read by SDO (ecx_readPDOmap) for CoE slaves;
+slaves without a mailbox are mapped from their SII (ecx_map_sii) and refuse SDOs with
+``MailboxError``. Where we differ: no segmented SDO, no complete access; one group; segments split at slave
 boundaries; ``check()`` returns SOEM simple_test's ecatcheck messages instead of printing them.
 For a ros2_control adapter: ``Slave.read_object(0x6041)`` / ``write_object(0x6040, cw)`` reach
 any mapped object by its CiA index, ``pdo_layout()`` lists them, ``diagnose(wkc)`` says which
@@ -29,7 +31,7 @@ from robocourse.rt.loop import PeriodicLoop
 from .bus import Bus
 from .dc import line_delays
 from .eeprom import EepromAccess
-from .errors import MailboxError, MasterError
+from .errors import MasterError
 from .esc import (
     AL_ERROR,
     AL_STATUS_TEXT,
@@ -59,6 +61,7 @@ from .esc import (
     STATE_NAMES,
 )
 from .frames import Command, Datagram, FrameError, datagram, decode_frame, frame_bytes
+from .mailbox import MailboxClient
 from .sii import SM_TYPE_INPUTS, SM_TYPE_OUTPUTS, Pdo, SiiInfo
 from .transport import InProcess, RawSocket
 
@@ -157,6 +160,11 @@ class Slave:
     in_offset: int = 0
     fmmus: list[Fmmu] = field(default_factory=list)
     is_lost: bool = False
+    mbx_l: int = 0  # write mailbox (SM0) length, SOEM's mbx_l
+    mbx_wo: int = 0
+    mbx_rl: int = 0
+    mbx_ro: int = 0
+    mbx_cnt: int = 0
     _pdo_detail: tuple[list[Pdo], list[Pdo]] | None = field(default=None, repr=False)
     dc_delay: int = 0
     dc_port_times: tuple[int, int | None] = (0, None)
@@ -271,10 +279,12 @@ class Slave:
         m._fp(Command.FPWR, adr, REG_DCSYNCACT, b"\x03" if act else b"\x00")
 
     def sdo_read(self, index: int, subindex: int, size: int = 0) -> bytes:
-        raise MailboxError(self._no_mailbox(f"sdo_read(0x{index:04X}, {subindex})"))
+        """Expedited SDO upload over the CoE mailbox; ``SdoError`` carries the abort code."""
+        return self.master.sdo_upload(self, index, subindex)
 
     def sdo_write(self, index: int, subindex: int, data: bytes) -> None:
-        raise MailboxError(self._no_mailbox(f"sdo_write(0x{index:04X}, {subindex})"))
+        """Expedited SDO download (1-4 bytes) over the CoE mailbox."""
+        self.master.sdo_download(self, index, subindex, data)
 
     def _no_mailbox(self, what: str) -> str:
         return (f"{what}: slave {self.position} ({self.name}) has no mailbox (SII mailbox size "
@@ -306,7 +316,7 @@ def state_name(al_status: int) -> str:
     return name + (" + ERROR" if al_status & AL_ERROR else "")
 
 
-class Master(EepromAccess):
+class Master(EepromAccess, MailboxClient):
     """An EtherCAT master with pysoem's interface. ``open(bus)`` in-process, ``open('veth0')`` raw."""
 
     def __init__(self, retries: int = 3, timeout_us: int = 2000) -> None:
@@ -433,13 +443,17 @@ class Master(EepromAccess):
                 self._readeeprom1(s, next_word)
         for s in self.slaves:
             mbx = self._readeeprom2(s)
-            s.sii.mbx_rx_offset, s.sii.mbx_rx_size = mbx & 0xFFFF, mbx >> 16
-            if s.sii.mbx_rx_size:
-                raise MasterError(
-                    f"slave {s.position} ({s.sii.vendor_id:#x}:{s.sii.product_code:#x}) has a "
-                    "mailbox; this master maps slaves from their SII only (no CoE)")
+            s.mbx_wo, s.mbx_l = mbx & 0xFFFF, mbx >> 16
+            s.sii.mbx_rx_offset, s.sii.mbx_rx_size = s.mbx_wo, s.mbx_l
+            if s.mbx_l:
+                self._readeeprom1(s, 0x001A)
         for s in self.slaves:
             adr = s.config_address
+            if s.mbx_l:
+                mbx = self._readeeprom2(s)
+                s.mbx_ro, s.mbx_rl = mbx & 0xFFFF, (mbx >> 16) or s.mbx_l
+                s.sii.mbx_tx_offset, s.sii.mbx_tx_size = s.mbx_ro, s.mbx_rl
+                self._readeeprom1(s, 0x001C)
             s.has_dc = bool(_U16.unpack(self._fp(Command.FPRD, adr, REG_ESCSUP, 2)[1])[0] & 0x04)
             s.dl_status = _U16.unpack(self._fp(Command.FPRD, adr, REG_DLSTAT, 2)[1])[0]
             s.topology, s.active_ports = 0, 0
@@ -450,6 +464,8 @@ class Master(EepromAccess):
             s.ptype = self._fp(Command.FPRD, adr, REG_PORTDES, 2)[1][0]
             s.parent = s.position - 1 if s.position > 1 else 0
             self._statecheck_slave(s, INIT, 2000)
+            if s.mbx_l:
+                s.sii.mbx_protocols = self._readeeprom2(s) & 0xFFFF
             prev = next((p for p in self.slaves[:s.position - 1]
                          if (p.man, p.id, p.rev) == (s.man, s.id, s.rev)), None)
             if prev is not None:  # ecx_lookup_prev_sii: same identity, copy instead of reading
@@ -458,7 +474,15 @@ class Master(EepromAccess):
             else:
                 self._read_sii_config(s)
             s.sm = [(start, length, ctl | (en << 16)) for start, length, ctl, en, _t in s.sii.sms]
+            s.sm += [(0, 0, 0)] * (8 - len(s.sm))
             s.sm_type = [0] * len(s.sm)
+            if s.mbx_l:  # SM0 + SM1 in one datagram (SOEM: "solves timing issue in old NETX")
+                if not s.sm[0][0]:
+                    s.sm[0] = (s.mbx_wo, s.mbx_l, 0x00010026)
+                    s.sm[1] = (s.mbx_ro, s.mbx_rl, 0x00010022)
+                s.sm_type[0:4] = [1, 2, 3, 4]
+                self._fp(Command.FPWR, adr, REG_SM0,
+                         b"".join(struct.pack("<HHI", *s.sm[i]) for i in (0, 1)))
             self._eeprom_to_pdi(s)
             self._fp(Command.FPWR, adr, REG_ALCTL, _U16.pack(PREOP | AL_ERROR))
         self.dc_ref = next((s for s in self.slaves if s.has_dc), None)
@@ -482,7 +506,7 @@ class Master(EepromAccess):
         if not self.slaves:
             raise MasterError("config_map() before config_init() found any slave")
         for s in self.slaves:
-            self._statecheck_slave(s, PREOP, 2000)
+            self._map_coe(s)
         for s in self.slaves:
             self._map_sii(s)
             self._map_sm(s)
@@ -512,7 +536,19 @@ class Master(EepromAccess):
         self._segs = self._segments()
         return log
 
+    def _map_coe(self, s: Slave) -> None:
+        """ecx_map_coe_soe: PRE_OP check, then the PDO map by SDO for a CoE slave."""
+        self._statecheck_slave(s, PREOP, 2000)
+        s.obits = s.ibits = 0
+        if s.mbx_l and s.sii.mbx_protocols & 0x0004:
+            s.obits, s.ibits = self.read_pdo_map(s)
+
     def _map_sii(self, s: Slave) -> None:
+        if s.obits or s.ibits:  # the CoE map counted already
+            s.ibytes = (s.ibits + 7) // 8 if s.ibits > 7 else 0
+            s.obytes = (s.obits + 7) // 8 if s.obits > 7 else 0
+            s._pdo_detail = None
+            return
         prev = next((p for p in self.slaves[:s.position - 1] if (p.man, p.id, p.rev) ==
                      (s.man, s.id, s.rev) and (p.ibits or p.obits)), None)
         if prev is not None:  # ecx_lookup_mapping: a previous slave of the same kind
@@ -541,13 +577,13 @@ class Master(EepromAccess):
 
     def _map_sm(self, s: Slave) -> None:
         for i, (start, length, flags) in enumerate(s.sm):
-            if not start or (i < 2 and s.sii.mbx_rx_size):
+            if not start or (i < 2 and s.mbx_l):
                 continue
-            if i >= 2 or not s.sii.mbx_rx_size:
+            if i >= 2:
                 flags = flags | 0x10000 if length else flags & ~0x10000
                 s.sm[i] = (start, length, flags)
-                self._fp(Command.FPWR, s.config_address, REG_SM0 + 8 * i,
-                         struct.pack("<HHI", start, length, flags))
+            self._fp(Command.FPWR, s.config_address, REG_SM0 + 8 * i,
+                     struct.pack("<HHI", start, length, flags))
 
     def _create_mapping(self, s: Slave, bits: int, nbytes: int, sm_type: int, fmmu_type: int,
                         log: int, bit: int) -> tuple[int, int]:

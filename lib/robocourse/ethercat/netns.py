@@ -65,7 +65,7 @@ class VethPair:
         self.close()
 
 
-def run_pysoem(bus, cycles: int = 1000, timeout: float = 180.0) -> dict:
+def run_pysoem(bus, cycles: int = 1000, timeout: float = 180.0, sdo_slave: int = 0) -> dict:
     """Serve ``bus`` on a fresh veth pair and run ``pysoem_probe`` against it in the namespace.
 
     Returns the probe's JSON report plus ``bus_replies``; raises with the probe's stderr when
@@ -80,7 +80,7 @@ def run_pysoem(bus, cycles: int = 1000, timeout: float = 180.0) -> dict:
         server = serve(bus, v.bus_if)
         try:
             r = v.run([sys.executable, "-m", "robocourse.ethercat.pysoem_probe", v.master_if,
-                       "--cycles", str(cycles)], timeout=timeout)
+                       "--cycles", str(cycles), "--sdo-slave", str(sdo_slave)], timeout=timeout)
         finally:
             server.stop()
         if r.returncode:

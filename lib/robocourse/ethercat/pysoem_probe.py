@@ -33,6 +33,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cycles", type=int, default=1000)
     ap.add_argument("--ret-timeout-us", type=int, default=20000,
                     help="SOEM's EC_TIMEOUTRET (default 2000 us; raised for a loaded machine)")
+    ap.add_argument("--sdo-slave", type=int, default=0,
+                    help="1-based slave to read 0x1018:01 and 0x6061 from by SDO, and to ask for "
+                    "a missing object 0x2000 (its abort)")
     a = ap.parse_args(argv)
     import pysoem
 
@@ -48,6 +51,18 @@ def main(argv: list[str] | None = None) -> int:
         rep["expected_wkc"] = m.expected_wkc
         rep["config_dc"] = bool(m.config_dc())
         rep["safeop"] = m.state_check(pysoem.SAFEOP_STATE, 50000)
+        if a.sdo_slave:
+            s = m.slaves[a.sdo_slave - 1]
+            rep["sdo_1018_01"] = s.sdo_read(0x1018, 1).hex()
+            s.sdo_write(0x6060, 0, bytes([9]))
+            rep["sdo_6061"] = s.sdo_read(0x6061, 0).hex()
+            try:
+                s.sdo_read(0x2000, 0)
+                rep["sdo_missing"] = "no error"
+            except pysoem.SdoError as e:
+                rep["sdo_missing"] = f"SdoError abort 0x{e.abort_code:08X}: {e.desc}"
+            except Exception as e:  # noqa: BLE001 - report whatever pysoem raised
+                rep["sdo_missing"] = f"{type(e).__name__}: {e}"
         m.state = pysoem.OP_STATE
         m.send_processdata()
         m.receive_processdata(a.ret_timeout_us)

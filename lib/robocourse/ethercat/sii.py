@@ -91,6 +91,8 @@ class DeviceDescription:
     ebus_current_ma: int = 0
     pdi_control: int = 0x0000
     eeprom_bytes: int = 2048
+    mbx_protocols: int = 0  # SII word 0x001C: 0x0004 = CoE (needs mailbox SMs of type 1 and 2)
+    coe_details: int = 0  # general category byte 5: 0x01 SDO, 0x04 PDO assign, 0x20 complete access
 
     def __post_init__(self) -> None:
         for what, pdos, want in (("RxPDO", self.rxpdos, SM_TYPE_OUTPUTS),
@@ -114,6 +116,13 @@ class DeviceDescription:
             if s1 < e0:
                 raise DescriptionError(f"{self.name}: SM{i0} 0x{s0:04X}..0x{e0 - 1:04X} overlaps "
                                        f"SM{i1} at 0x{s1:04X}; move one of them")
+
+    def mailbox(self, sm_type: int) -> tuple[int, int]:
+        """(start, length) of the enabled mailbox SM of ``sm_type`` (1 out, 2 in), or (0, 0)."""
+        for i, sm in enumerate(self.sms):
+            if sm.sm_type == sm_type and sm.enable:
+                return sm.start, self.sm_length(i)
+        return 0, 0
 
     def sm_pdo_bytes(self, sm: int) -> int:
         bits = sum(p.bits for p in self.rxpdos + self.txpdos if p.sm == sm)
@@ -170,9 +179,12 @@ def build_sii(desc: DeviceDescription) -> bytes:
     struct.pack_into("<IIII", head, 16, desc.vendor_id, desc.product_code, desc.revision,
                      desc.serial)
     struct.pack_into("<HH", head, 0x3E * 2, desc.eeprom_bytes * 8 // 1024 - 1, 1)
+    struct.pack_into("<HHHHH", head, 0x18 * 2, *desc.mailbox(SM_TYPE_MBX_OUT),
+                     *desc.mailbox(SM_TYPE_MBX_IN), desc.mbx_protocols)
 
     general = bytearray(32)
     general[0], general[2], general[3] = group_i, sidx(desc.name), long_i
+    general[5] = desc.coe_details
     struct.pack_into("<h", general, 12, desc.ebus_current_ma)
     general[14] = group_i
     string_blob = bytes([len(strings)]) + b"".join(
