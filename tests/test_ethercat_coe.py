@@ -28,12 +28,18 @@ def one(bus, cmd, adp, ado, data):
     return decode_frame(bus.process(frame_bytes([datagram(cmd, adp, ado, data)]))).datagrams[0]
 
 
-def drive_in_preop():
+def mailbox_drive_asked_for_preop(write_mailbox_len=128):
+    """A CoE drive at 0x1001 with SM0/SM1 programmed as SOEM does, then PRE_OP requested."""
     bus = Bus([Cia402Drive(mailbox=True)])
     one(bus, Command.APWR, 0, 0x0010, b"\x01\x10")
-    one(bus, Command.FPWR, 0x1001, 0x0800, struct.pack("<HHIHHI", 0x1000, 128, 0x00010026,
-                                                       0x1080, 128, 0x00010022))
+    one(bus, Command.FPWR, 0x1001, 0x0800, struct.pack(
+        "<HHIHHI", 0x1000, write_mailbox_len, 0x00010026, 0x1080, 128, 0x00010022))
     one(bus, Command.FPWR, 0x1001, 0x0120, b"\x02\x00")
+    return bus
+
+
+def drive_in_preop():
+    bus = mailbox_drive_asked_for_preop()
     assert bus.slaves[0].state == PREOP
     return bus
 
@@ -99,12 +105,7 @@ def test_mailbox_syncmanagers_refuse_a_second_write_and_an_empty_read():
 
 
 def test_mailbox_sm_config_unlike_the_sii_refuses_preop_with_0x0016():
-    bus = Bus([Cia402Drive(mailbox=True)])
-    one(bus, Command.APWR, 0, 0x0010, b"\x01\x10")
-    one(bus, Command.FPWR, 0x1001, 0x0800, struct.pack("<HHIHHI", 0x1000, 64, 0x00010026,
-                                                       0x1080, 128, 0x00010022))
-    one(bus, Command.FPWR, 0x1001, 0x0120, b"\x02\x00")
-    esc = bus.slaves[0]
+    esc = mailbox_drive_asked_for_preop(write_mailbox_len=64).slaves[0]
     assert (esc.al_status, esc.al_status_code) == (INIT | 0x10, AL_INVALID_MBX_CONFIG)
 
 

@@ -55,7 +55,9 @@ def test_soem_scans_maps_and_runs_our_bus_in_op_for_1000_cycles(tmp_path):
     assert bring_up_requests(our_bring_up(tmp_path, demo_bus)) == soem_up
 
 
-def our_bring_up(tmp_path, make_bus):
+def our_bring_up(tmp_path, make_bus, then=None):
+    """Our master's config_init, config_map, config_dc, SAFE_OP check (then ``then(master)``),
+    as captured frames."""
     with PcapWriter(tmp_path / "ours.pcap") as w:
         m = Master()
         m.open(make_bus(capture=w))
@@ -63,6 +65,8 @@ def our_bring_up(tmp_path, make_bus):
         m.config_map()
         m.config_dc()
         m.state_check(4, 50_000)
+        if then is not None:
+            then(m)
     return [decode_frame(f) for _, f in read_pcap(tmp_path / "ours.pcap")]
 
 
@@ -139,18 +143,13 @@ def test_soem_maps_a_coe_drive_by_sdo_reads_and_writes_objects_and_gets_aborts(t
                for d in f.datagrams if d.cmd == Command.FPWR and d.ado == 0x1000]
     assert uploads[:3] == [(0x1C00, 0), (0x1C00, 3), (0x1C12, 0)]  # SOEM's ecx_readPDOmap
     # our master, doing what the probe did, sends the same datagrams (SDOs included)
-    with PcapWriter(tmp_path / "ours.pcap") as w:
-        m = Master()
-        m.open(make(capture=w))
-        m.config_init()
-        m.config_map()
-        m.config_dc()
-        m.state_check(4, 50_000)
+    def sdo_like_the_probe(m):
         s = m.slaves[3]
         s.sdo_read(0x1018, 1)
         s.sdo_write(0x6060, 0, bytes([9]))
         s.sdo_read(0x6061, 0)
         with pytest.raises(SdoError):
             s.sdo_read(0x2000, 0)
-    ours = [decode_frame(f) for _, f in read_pcap(tmp_path / "ours.pcap")]
+
+    ours = our_bring_up(tmp_path, make, sdo_like_the_probe)
     assert bring_up_requests(ours) == bring_up_requests(soem)
