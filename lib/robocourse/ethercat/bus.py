@@ -64,8 +64,8 @@ class Bus:
             raise ValueError("a bus needs at least one slave, e.g. Bus([DigitalInputs()])")
         self.slaves = list(slaves)
         n = len(self.slaves)
-        self.forward_ns = self._per_slave(forward_ns, n, "forward_ns")
-        self.return_ns = self._per_slave(return_ns, n, "return_ns")
+        self.forward_ns = tuple(self._per_slave(forward_ns, n, "forward_ns"))  # fixed: the
+        self.return_ns = tuple(self._per_slave(return_ns, n, "return_ns"))  # timing is cached
         self.clock = clock
         self.capture = capture
         self.connected = n
@@ -97,9 +97,24 @@ class Bus:
 
     def _link_up(self, k: int) -> None:
         self.connected = k
+        self._offsets = self._timing(k)
         for i, s in enumerate(self.slaves):
             s.set_port_link(0, i < k)
             s.set_port_link(1, i + 1 < k)
+
+    def _timing(self, n: int) -> tuple[list[float], list[float], float]:
+        """Offsets from a frame's departure: arrival at each slave's port 0, arrival back at
+        its port 1, and return to the master. The last slave turns the frame round inside
+        (port 1 closed); every other one sees it back at port 1 and returns it via port 0."""
+        fwd, t = [], 0.0
+        for i in range(n):
+            fwd.append(t)
+            t += self.forward_ns[i]
+        back, t_exit = [t] * n, t
+        for i in range(n - 2, -1, -1):
+            back[i] = t_exit
+            t_exit += self.return_ns[i]
+        return fwd, back, t_exit
 
     def lose_frames(self, n: int = 1) -> None:
         """The next ``n`` frames vanish on the wire (no reply at all)."""
@@ -157,18 +172,11 @@ class Bus:
         bad = self._corrupt.pop(0) if self._corrupt else 0
         # arrival time at each slave's port 0 on the way out, at port 1 on the way back; a
         # frame cannot leave before the previous one is back (one line, one frame at a time)
-        t_in = [0.0] * n
         t = max(now, self._wire_free)
-        for i in range(n):
-            t_in[i] = t
-            t += self.forward_ns[i]
-        # the last slave turns the frame round inside (port 1 closed): it leaves its port 0 at
-        # t; every other slave sees it back at port 1 then returns it through port 0
-        t_back = [t] * n
-        t_exit = t
-        for i in range(n - 2, -1, -1):
-            t_back[i] = t_exit
-            t_exit += self.return_ns[i]
+        fwd, back, exit_off = self._offsets
+        t_in = [t + o for o in fwd]
+        t_back = [t + o for o in back]
+        t_exit = t + exit_off
         plan = [(d, _KIND[d.cmd], _RW[d.cmd]) for d in dgs]
         for i in range(n):
             esc = slaves[i]

@@ -69,6 +69,7 @@ NONE_STATE = 0x00
 EC_NODEOFFSET = 0x1000
 EC_NOFRAME = -1
 MAX_LRW_DATA = 1466  # EC_MAXLRWDATA - EC_FIRSTDCDATAGRAM
+_PD_DATA = 14 + 2 + 10  # offset of the LRW's data in a process-data frame
 EPOCH_2000_S = 946684800
 _U16, _U32, _U64 = struct.Struct("<H"), struct.Struct("<I"), struct.Struct("<Q")
 
@@ -338,6 +339,8 @@ class Master(EepromAccess, MailboxClient):
         self._idx = 0
         self._pending: list[tuple[bytes, bytes | None]] = []
         self._segs: list[tuple[int, int]] = []
+        self._pd_key: tuple | None = None
+        self._pd: list[tuple[int, int, bytearray, int]] = []
 
     # ---- transport ------------------------------------------------------------------------
     def open(self, where: Bus | str) -> None:
@@ -711,32 +714,58 @@ class Master(EepromAccess, MailboxClient):
             segs.append((start, len(self.io_map)))
         return segs
 
+    def _pd_frames(self) -> list[tuple[int, int, bytearray, int]]:
+        """Per segment (logical start, length, frame template, FRMW data offset or 0): the
+        process-data frames are built once and only their data is refreshed each cycle."""
+        frmw = self.dc_ref.config_address if self.dc_ref is not None and self.drift_compensation \
+            else None
+        key = (tuple(self._segs), frmw)
+        if key != self._pd_key:
+            frames = []
+            for i, (lo, hi) in enumerate(self._segs):
+                dgs = [Datagram.logical_cmd(Command.LRW, lo, hi - lo)]
+                if i == 0 and frmw is not None:
+                    dgs.append(datagram(Command.FRMW, frmw, REG_DCSYSTIME, 8))
+                frames.append((lo, hi - lo, bytearray(frame_bytes(dgs)),
+                               _PD_DATA + (hi - lo) + 2 + 10 if len(dgs) > 1 else 0))
+            self._pd_key, self._pd = key, frames
+        return self._pd
+
     def send_processdata(self) -> None:
-        """One LRW per segment of the image (+ FRMW of the DC reference's 0x0910 in the first)."""
-        self._pending = []
-        for i, (lo, hi) in enumerate(self._segs):
-            dgs = [Datagram.logical_cmd(Command.LRW, lo, bytes(self.io_map[lo:hi]))]
-            if i == 0 and self.dc_ref is not None and self.drift_compensation:
-                # the FRMW carries the last DC time, as SOEM's does
-                dgs.append(datagram(Command.FRMW, self.dc_ref.config_address, REG_DCSYSTIME,
-                                    _U64.pack(self.dc_time)))
-            self._pending.append((lo, self.exchange(dgs, retries=0)))
+        """One LRW per segment of the image (+ FRMW of the DC reference's 0x0910 in the first,
+        carrying the last DC time as SOEM's does)."""
+        if self.transport is None:
+            raise MasterError("the master is not open: call master.open(bus) or open('eth0') first")
+        pending = []
+        for lo, n, buf, frmw in self._pd_frames():
+            idx = self._next_idx()
+            buf[17] = idx
+            buf[_PD_DATA:_PD_DATA + n] = self.io_map[lo:lo + n]
+            buf[_PD_DATA + n:_PD_DATA + n + 2] = b"\x00\x00"
+            if frmw:
+                buf[frmw - 9] = idx
+                buf[frmw:frmw + 10] = _U64.pack(self.dc_time) + b"\x00\x00"
+            self.frames_sent += 1
+            reply = self.transport.exchange(bytes(buf), self.timeout_us * 1e-6)
+            if reply is None or len(reply) < len(buf) or reply[17] != idx or reply[16] != Command.LRW:
+                self.frames_lost += 1
+                reply = None
+            pending.append((lo, n, frmw, reply))
+        self._pending = pending
 
     def receive_processdata(self, timeout: int = 2000) -> int:
         """The LRW working counters summed, or -1 (EC_NOFRAME) when a reply never came."""
-        if not self._pending:
+        pending, self._pending = self._pending, []
+        if not pending:
             return EC_NOFRAME
         wkc = 0
-        for lo, reply in self._pending:
+        for lo, n, frmw, reply in pending:
             if reply is None:
-                self._pending = []
                 return EC_NOFRAME
-            lrw = reply[0]
-            self.io_map[lo:lo + len(lrw.data)] = lrw.data
-            wkc += lrw.wkc
-            if len(reply) > 1:
-                self.dc_time = _U64.unpack(bytes(reply[1].data))[0]
-        self._pending = []
+            self.io_map[lo:lo + n] = reply[_PD_DATA:_PD_DATA + n]
+            wkc += reply[_PD_DATA + n] | reply[_PD_DATA + n + 1] << 8
+            if frmw:
+                self.dc_time = _U64.unpack_from(reply, frmw)[0]
         return wkc
 
     # ---- 4 supervision: SOEM simple_test's ecatcheck -------------------------------------
