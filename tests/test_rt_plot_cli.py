@@ -41,6 +41,20 @@ def test_cli_rttest_runs_prints_block_and_writes_file(tmp_path, capsys):
     assert (data.latency >= 0).all()
 
 
+def test_cli_rttest_sleeps_like_rttest_by_default_and_says_so(capsys):
+    assert main(["rttest", "-i", "50", "-u", "1ms", "-d", "1mb"]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    i = lines.index("rttest statistics:")
+    assert lines[i - 1] == "Wait strategy: sleep (clock_nanosleep to each absolute deadline, as rttest does)"
+
+
+def test_cli_rttest_hybrid_is_named_in_the_block(capsys):
+    assert main(["rttest", "-i", "20", "-u", "1ms", "-d", "1mb", "--wait", "hybrid", "--spin", "100us"]) == 0
+    out = capsys.readouterr().out
+    assert "Wait strategy: hybrid(100 us spin): sleeps, then busy-waits up to the deadline (rttest only sleeps" in out
+
+
 @pytest.mark.parametrize("argv,fragment", [
     (["rttest", "-u", "fast"], "robocourse rttest: error: -u 'fast': not a duration"),
     (["rttest", "-s", "idle"], "must be fifo or rr"),
