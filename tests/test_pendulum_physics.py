@@ -167,3 +167,38 @@ def test_jitter_replay_sustained_delay_topples_a_spike_does_not():
     assert "FELL at" in jitter.format_rows(list(rows.values()))
     with pytest.raises(ValueError, match="empty"):
         jitter.replay({"none": []})
+
+
+@pytest.mark.parametrize("kwargs,fragment", [
+    ({"period_s": -0.001}, r"SeedPID\(period_s=-0.001\): the controller period is a positive"),
+    ({"period_s": float("inf")}, "positive, finite"),
+    ({"period_s": 0.001, "p": float("nan")}, r"SeedPID\(p=nan\)"),
+])
+def test_seed_pid_refuses_bad_values_with_the_rule(kwargs, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        SeedPID(**kwargs)
+
+
+@pytest.mark.parametrize("kwargs,fragment", [
+    ({"Q": np.eye(3)}, r"Q with shape \(3, 3\).*has 4 entries, so Q is 4x4"),
+    ({"Q": -np.eye(4)}, "positive semi-definite"),
+    ({"Q": np.triu(np.ones((4, 4)))}, "symmetric"),
+    ({"R": 0}, r"R=0.0\): the cart-pole has one input, so R is one positive, finite number"),
+    ({"R": -1.0}, "one positive, finite number"),
+    ({"R": [[1, 0], [0, 1]]}, "one positive"),
+])
+def test_lqr_gain_refuses_bad_weights_before_calling_python_control(kwargs, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        cartpole.lqr_gain(**kwargs)
+
+
+@pytest.mark.parametrize("kwargs,fragment", [
+    ({"K": [1, 2, 3]}, r"K=\[1, 2, 3\]: need 4 finite numbers, one per state"),
+    ({"K": [1, 2, 3, float("nan")]}, "need 4 finite numbers"),
+    ({"x0": (0, 0, 3.0)}, "x0=.*need 4 finite numbers"),
+    ({"duration": -1.0}, r"simulate\(duration=-1.0\): a positive, finite number of seconds"),
+    ({"period": 0.0}, r"simulate\(period=0.0\)"),
+])
+def test_simulate_refuses_bad_arguments_with_the_rule(kwargs, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        cartpole.simulate(**kwargs)
