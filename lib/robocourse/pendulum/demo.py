@@ -396,9 +396,7 @@ def run_realtime(iterations: int = 1000, period_ns: int = 1_000_000, priority: i
     rtt = RttExecutor(ctx, graph.statistics)
     for node in (graph.motor_node, graph.controller_node) + ((logger.node,) if logger else ()):
         rtt.add_node(node)
-    import os
-
-    saved = (os.sched_getscheduler(0), os.sched_getparam(0))
+    saved = rts.current_scheduling()  # ("unknown", 0) off Linux: nothing to restore there
     reports = []
     motor.start()
     try:
@@ -414,9 +412,6 @@ def run_realtime(iterations: int = 1000, period_ns: int = 1_000_000, priority: i
         motor.set_done()
         if lock_memory:
             rts.unlock_memory()
-        try:
-            os.sched_setscheduler(0, *saved)
-        except OSError:
-            pass
+        rts.reset_scheduling(*saved)
         ctx.try_shutdown()
     return RealtimeRun(loop, graph, reports, logger)

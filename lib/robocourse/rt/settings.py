@@ -17,14 +17,13 @@ import contextlib
 import ctypes
 import ctypes.util
 import gc
-import getpass
 import os
 import resource
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from .capabilities import RT_PRIORITY
+from .capabilities import RT_PRIORITY, memlock_fix, rtprio_fix
 
 MCL_CURRENT = 1
 MCL_FUTURE = 2
@@ -46,29 +45,6 @@ def _libc():
 
 
 _LIBC = _libc()
-
-
-def _user() -> str:
-    try:
-        return getpass.getuser()
-    except Exception:
-        return str(os.geteuid())
-
-
-def _python() -> str:
-    return os.path.realpath(sys.executable)
-
-
-def rtprio_fix(priority: int = RT_PRIORITY) -> str:
-    return (f"add to /etc/security/limits.conf:  {_user()} - rtprio {min(max(priority, 1), 98)}\n"
-            "then log out and in again (never 99: the kernel's watchdogs run there);\n"
-            f"or for this Python only: sudo setcap cap_sys_nice+ep {_python()}")
-
-
-def memlock_fix() -> str:
-    return (f"add to /etc/security/limits.conf:  {_user()} - memlock -1   (or a size in kB)\n"
-            "then log out and in again;\n"
-            f"or for this Python only: sudo setcap cap_ipc_lock+ep {_python()}")
 
 
 @dataclass
