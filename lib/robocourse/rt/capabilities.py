@@ -54,8 +54,9 @@ def interpreter_is_copy() -> bool:
     A venv made the default way links ``bin/python`` to the base interpreter; ``setcap`` follows
     the link and marks the base binary, which every Python script on the machine runs.
     """
-    exe = Path(sys.executable)
-    return sys.prefix != sys.base_prefix and exe.exists() and not exe.is_symlink()
+    exe = sys.executable
+    # os.path answers False where it may not look (an unprivileged child cannot read root's venv)
+    return sys.prefix != sys.base_prefix and os.path.isfile(exe) and not os.path.islink(exe)
 
 
 def setcap_advice(caps: str) -> str:

@@ -87,10 +87,11 @@ class Repeated:
     def table(self, metrics=("p50", "p99", "max"), scale: float = 1e-3, unit: str = "us", digits: int = 1) -> str:
         """A text table: one row per experiment, each cell 'median [min-max]' over the rounds."""
         width = max(len(n) for n in self.runs) + 2
-        head = f"{'':<{width}}" + "".join(f"{m + ' ' + unit:>26}" for m in metrics)
+        head = f"{'':<{width}}" + "".join(f" {(m + ' ' + unit if isinstance(m, str) else unit).strip():>28}"
+                                          for m in metrics)
         lines = [f"median [lowest-highest] over {self.rounds} rounds, order alternating every round", head]
         for name in self.runs:
-            lines.append(f"{name:<{width}}" + "".join(f"{self.cell(name, m, scale, digits):>26}" for m in metrics))
+            lines.append(f"{name:<{width}}" + "".join(f" {self.cell(name, m, scale, digits):>28}" for m in metrics))
         return "\n".join(lines)
 
 
