@@ -70,3 +70,9 @@ def test_unknown_metric_is_named():
     rep = measure_rounds({"a": _sequence([1])}, rounds=1)
     with pytest.raises(ValueError, match="unknown metric 'p42'"):
         rep.median("a", "p42")
+
+
+def test_progress_bar_counts_every_run(capsys):
+    rep = measure_rounds({"a": _sequence([1, 2]), "b": _sequence([3, 4])}, rounds=2, progress=True)
+    err = capsys.readouterr().err
+    assert rep.rounds == 2 and "runs:" in err and "/4" in err

@@ -95,11 +95,12 @@ class Repeated:
         return "\n".join(lines)
 
 
-def measure_rounds(experiments: dict, rounds: int = 3, between=None) -> Repeated:
+def measure_rounds(experiments: dict, rounds: int = 3, between=None, progress: bool = False) -> Repeated:
     """Run each ``experiments[name]()`` once per round, alternating the order every round.
 
     Each experiment is a function of no argument returning a run (a LoopResult, a
-    CyclictestResult, ...). ``between(name, run)`` is called after each run (cleanup, progress).
+    CyclictestResult, ...). ``between(name, run)`` is called after each run (cleanup).
+    ``progress=True`` shows a progress bar, advanced *between* runs, never inside a loop.
     """
     if isinstance(rounds, bool) or not isinstance(rounds, int) or rounds < 1:
         raise ValueError(f"rounds={rounds!r}: run every experiment at least once, e.g. rounds=3")
@@ -110,14 +111,25 @@ def measure_rounds(experiments: dict, rounds: int = 3, between=None) -> Repeated
             raise ValueError(f"experiment {name!r} must be a function of no argument returning a run, got {fn!r}")
     names = list(experiments)
     rep = Repeated({n: [] for n in names})
-    for k in range(rounds):
-        order = names if k % 2 == 0 else names[::-1]
-        rep.order.append(list(order))
-        for name in order:
-            run = experiments[name]()
-            rep.runs[name].append(run)
-            if between is not None:
-                between(name, run)
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=rounds * len(names), desc="runs", leave=False)
+    try:
+        for k in range(rounds):
+            order = names if k % 2 == 0 else names[::-1]
+            rep.order.append(list(order))
+            for name in order:
+                run = experiments[name]()
+                rep.runs[name].append(run)
+                if between is not None:
+                    between(name, run)
+                if bar is not None:
+                    bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
     return rep
 
 
