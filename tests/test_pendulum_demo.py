@@ -107,10 +107,20 @@ def test_cli_prints_what_pendulum_demo_prints(tmp_path):
     assert proc.returncode == 0, proc.stderr
     out = proc.stdout
     assert "Pendulum set to: 1.300000" in out and "rttest statistics:" in out
+    # the seed's rttest loop sleeps; so does ours unless told --wait hybrid, and the block says which
+    assert "Wait strategy: sleep (clock_nanosleep to each absolute deadline, as rttest does)\nrttest statistics:" in out
     assert "Latency (time after deadline was missed):" in out
     assert "PendulumMotor received" in out and "PendulumController received" in out
     lines = out_file.read_text().splitlines()
     assert lines[0] == "iteration timestamp latency minor_pagefaults major_pagefaults" and len(lines) == 501
+
+
+def test_realtime_run_sleeps_unless_told_otherwise():
+    from robocourse.rt import Hybrid
+
+    assert demo.run_realtime(20, quiet=True).loop.strategy == "sleep"
+    hybrid = demo.run_realtime(20, quiet=True, wait=Hybrid(spin_ns=100_000))
+    assert hybrid.loop.stats().wait == "hybrid(100 us spin)"
 
 
 def test_cli_usage_errors_are_clear():
@@ -138,3 +148,32 @@ def test_cli_without_privileges_prints_the_seeds_messages_and_carries_on():
     assert "Couldn't lock all cached virtual memory." in text
     assert "Pagefaults from reading pages not yet mapped into RAM will be recorded." in text
     assert "PendulumController received" in text
+
+
+@pytest.mark.parametrize("kwargs,fragment", [
+    ({"iterations": 0}, r"run_realtime\(iterations=0\): at least 1"),
+    ({"iterations": -5}, r"iterations=-5"),
+    ({"period_ns": 0}, r"period_ns=0"),
+    ({"priority": 99}, r"priority=99\): a real-time priority 1..98"),
+    ({"policy": "batch"}, r"policy='batch'"),
+    ({"setpoint": float("nan")}, r"setpoint=nan"),
+    ({"wait": "sleep"}, r"wait='sleep'"),
+])
+def test_run_realtime_refuses_bad_input_before_starting_anything(kwargs, fragment):
+    import threading
+
+    before = threading.active_count()
+    with pytest.raises(ValueError, match=fragment):
+        demo.run_realtime(**kwargs, quiet=True)
+    assert threading.active_count() == before  # no physics thread was started
+
+
+@pytest.mark.parametrize("kwargs,fragment", [
+    ({"seconds": -1}, r"run_simulated\(seconds=-1\): spin for a positive, finite number of seconds"),
+    ({"seconds": 0.0}, "seconds=0.0"),
+    ({"seconds": float("nan")}, "seconds=nan"),
+    ({"seconds": 0.1, "initial_position": float("inf")}, "initial_position=inf"),
+])
+def test_run_simulated_refuses_bad_input(kwargs, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        demo.run_simulated(**kwargs)
