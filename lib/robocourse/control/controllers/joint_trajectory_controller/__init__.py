@@ -75,21 +75,33 @@ class _Tolerances:
         self.goal_velocity = np.zeros(dof)
         self.goal_acceleration = np.zeros(dof)
         self.goal_time = 0.0
+        self.seal()
+
+    def seal(self) -> None:
+        """Note which tolerance vectors check anything (the real-time side skips the rest)."""
+        self.state_checks = [(f, t) for f, t in (("positions", self.state_position), ("velocities", self.state_velocity),
+                                                 ("accelerations", self.state_acceleration)) if t.any()]
+        self.goal_checks = [(f, t) for f, t in (("positions", self.goal_position), ("velocities", self.goal_velocity),
+                                                ("accelerations", self.goal_acceleration)) if t.any()]
 
     def copy(self) -> _Tolerances:
         out = _Tolerances(len(self.state_position))
         for k, v in vars(self).items():
-            setattr(out, k, v.copy() if isinstance(v, np.ndarray) else v)
+            if isinstance(v, np.ndarray):
+                setattr(out, k, v.copy())
+            elif not isinstance(v, list):
+                setattr(out, k, v)
+        out.seal()
         return out
 
 
-def _violates(err_p, err_v, err_a, tol_p, tol_v, tol_a) -> bool:
+def _violates(err, checks) -> bool:
     """check_state_tolerance_per_joint for all joints: a tolerance of 0 is not checked."""
-    if np.any((tol_p > 0.0) & (np.abs(err_p) > tol_p)):
-        return True
-    if np.any((tol_v > 0.0) & (np.abs(err_v) > tol_v)):
-        return True
-    return bool(np.any((tol_a > 0.0) & (np.abs(err_a) > tol_a)))
+    for field, tol in checks:
+        e = getattr(err, field)
+        if np.any((np.abs(e) > tol) & (tol > 0.0)):
+            return True
+    return False
 
 
 class _RtGoal:
@@ -195,6 +207,7 @@ class JointTrajectoryController(ControllerInterface):
         tol.goal_position[:] = [c.get_entry(j).goal for j in self._joints]
         tol.goal_velocity[:] = c.stopped_velocity_tolerance
         tol.goal_time = c.goal_time
+        tol.seal()
         self.default_tolerances = tol
         self.ff_velocity_scale = np.array([p.gains.get_entry(j).ff_velocity_scale for j in self._joints])
         self.cmd_timeout = p.cmd_timeout
@@ -336,11 +349,9 @@ class JointTrajectoryController(ControllerInterface):
         within_goal_time = True
         if not holding:
             if before_last_point or first_sample:
-                violated = _violates(err.positions, err.velocities, err.accelerations, tol.state_position,
-                                     tol.state_velocity, tol.state_acceleration)
+                violated = _violates(err, tol.state_checks)
             if not before_last_point:
-                outside_goal = _violates(err.positions, err.velocities, err.accelerations, tol.goal_position,
-                                         tol.goal_velocity, tol.goal_acceleration)
+                outside_goal = _violates(err, tol.goal_checks)
                 if outside_goal and tol.goal_time > 0.0 and time_difference > tol.goal_time:
                     within_goal_time = False
         self._write_commands(period)
@@ -508,6 +519,7 @@ class JointTrajectoryController(ControllerInterface):
         gt = _seconds(goal.goal_time_tolerance)
         if gt > 0.0:
             tol.goal_time = gt
+        tol.seal()
         return tol
 
     def _goal_received(self, goal):
