@@ -62,6 +62,14 @@ class GoalMonitor:
             return self.active
         return next((g for g in self.finished if g.handle is handle), None)
 
+    async def execute(self, handle, untracked_result):
+        """The action server's execute callback: wait for the real-time side's decision."""
+        goal = self.find(handle)
+        if goal is None:
+            handle.abort()
+            return untracked_result
+        return await goal.wait()
+
     def run_non_realtime(self) -> None:
         """Feedback of the active goal; status and result of every finished goal."""
         goal = self.active
@@ -72,6 +80,8 @@ class GoalMonitor:
             if g.feedback_due is not None and g.handle.is_active:
                 g.handle.publish_feedback(self._make_feedback(g))
             how, result = g.outcome
+            if how == "canceled" and not g.handle.is_cancel_requested:
+                how = "abort"       # the action state machine cancels only a goal whose cancel was requested
             if g.handle.is_active:
                 {"succeed": g.handle.succeed, "abort": g.handle.abort, "canceled": g.handle.canceled}[how]()
             g.future.set_result(result)

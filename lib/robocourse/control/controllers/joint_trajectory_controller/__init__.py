@@ -539,12 +539,9 @@ class JointTrajectoryController(ControllerInterface):
             self._hold()
         return CancelResponse.ACCEPT
 
-    async def _execute(self, handle):
-        goal = self.goals.find(handle)
-        if goal is None:
-            handle.abort()
-            return Result(error_code=Result.INVALID_GOAL, error_string="goal was not tracked by the controller")
-        return await goal.wait()
+    def _execute(self, handle):
+        return self.goals.execute(handle, Result(error_code=Result.INVALID_GOAL,
+                                                 error_string="goal was not tracked by the controller"))
 
     def _monitor_goal(self) -> None:
         """The goal handle timer (action_monitor_rate): feedback of the active goal, results of finished ones."""
