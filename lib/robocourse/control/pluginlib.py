@@ -93,6 +93,8 @@ def _builtins() -> None:
              c + "joint_trajectory_controller:JointTrajectoryController", CONTROLLER_BASE)
     register("parallel_gripper_action_controller/GripperActionController",
              c + "parallel_gripper_controller:ParallelGripperController", CONTROLLER_BASE)
+    register("diff_drive_controller/DiffDriveController", c + "diff_drive_controller:DiffDriveController",
+             CONTROLLER_BASE)
     register("admittance_controller/AdmittanceController", c + "admittance_controller:AdmittanceController",
              CONTROLLER_BASE)
 
