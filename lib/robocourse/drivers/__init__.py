@@ -22,9 +22,15 @@ _pluginlib.register("robocourse/URStyleSystem", "robocourse.drivers.systems:URSt
 
 
 def start_franka_box(port: int = 0, max_missed: int = 20, period_us: int = 1000, initial_positions=None,
-                     realtime: bool = False) -> BoxProcess:
-    """Start a Franka-style box process; ``box.ports["udp"]`` is its port. Stop it with ``box.stop()``."""
+                     realtime: bool = False, physics: bool = True) -> BoxProcess:
+    """Start a Franka-style box process; ``box.ports["udp"]`` is its port. Stop it with ``box.stop()``.
+
+    ``realtime``: the box tries SCHED_FIFO + locked memory (reports nothing if refused: it runs
+    on). ``physics=False``: the same packets and timing with no arm behind them (the floor).
+    """
     args = ["--port", port, "--max-missed", max_missed, "--period-us", period_us]
+    if not physics:
+        args.append("--no-physics")
     if initial_positions is not None:
         args += ["--initial", ",".join(repr(float(x)) for x in initial_positions)]
     if realtime:

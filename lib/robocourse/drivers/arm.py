@@ -62,3 +62,31 @@ class BoxArm:
         no inertial terms, so it reads non-zero while accelerating)."""
         self.tau_ext += alpha * ((self.gravity() - self.tau) - self.tau_ext)
         return self.tau_ext
+
+
+class NullArm:
+    """No physics: the same packets and timing with nothing behind them (the round-trip floor)."""
+
+    n = 6
+
+    def __init__(self, timestep: float = 0.001, initial_positions=None):
+        self.q = np.array(initial_positions if initial_positions is not None else np.zeros(6), dtype=float)
+        self.dq, self.tau, self.cmd, self.tau_ext = np.zeros(6), np.zeros(6), self.q.copy(), np.zeros(6)
+        self.limits_low, self.limits_high = np.full(6, -2 * np.pi), np.full(6, 2 * np.pi)
+        self.velocity_limits = np.full(6, np.pi)
+        self.mode = "position"
+
+    def set_mode(self, mode: str) -> None:
+        self.mode = mode
+
+    def hold(self) -> None:
+        self.cmd[:] = self.q
+
+    def gravity(self) -> np.ndarray:
+        return np.zeros(6)
+
+    def step(self, n: int = 1) -> None:
+        pass
+
+    def estimate_external_torque(self, alpha: float = 0.1) -> np.ndarray:
+        return self.tau_ext

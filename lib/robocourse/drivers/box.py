@@ -25,6 +25,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--max-missed", type=int, default=20, help="franka: missed ticks in a row before the reflex")
     p.add_argument("--keepalive", type=float, default=0.1, help="ur: script keepalive timeout in s")
     p.add_argument("--initial", default="", help="comma-separated initial joint positions (rad)")
+    p.add_argument("--no-physics", action="store_true", help="franka: no arm behind the packets (round-trip floor)")
     p.add_argument("--rt", action="store_true", help="try SCHED_FIFO + mlockall for the box")
     return p
 
@@ -45,7 +46,7 @@ def main(argv=None) -> int:
             from .franka_box import FrankaBox
 
             box = FrankaBox(port=a.port, host=a.host, period_us=a.period_us, max_missed=a.max_missed,
-                            initial_positions=initial)
+                            initial_positions=initial, physics=not a.no_physics)
             ready = f"READY udp={box.port}"
         else:
             from .ur_box import URBox

@@ -16,19 +16,22 @@ from __future__ import annotations
 import collections
 import json
 import socket
+import time
 
 import numpy as np
 
 from . import franka_protocol as fp
-from .arm import BoxArm
+from .arm import BoxArm, NullArm
 from .ticker import TickingBox
+
+_RING = 1 << 15
 
 
 class FrankaBox(TickingBox):
     def __init__(self, port: int = 0, host: str = "127.0.0.1", period_us: int = 1000, max_missed: int = 20,
-                 initial_positions=None):
+                 initial_positions=None, physics: bool = True):
         super().__init__()
-        self.arm = BoxArm(timestep=period_us * 1e-6, initial_positions=initial_positions)
+        self.arm = (BoxArm if physics else NullArm)(timestep=period_us * 1e-6, initial_positions=initial_positions)
         self.n = self.arm.n
         self.period_ns = int(period_us) * 1000
         self.period_us = int(period_us)
@@ -50,6 +53,10 @@ class FrankaBox(TickingBox):
         self._buf = bytearray(65536)
         self._out = bytearray(fp.HEADER.size + self._sst.size)
         self._values = np.zeros(4 * self.n + 1)
+        self._sent_ns = np.zeros(_RING, dtype=np.int64)    # send time of state seq, at seq % _RING
+        self.rtt_ns = np.zeros(_RING, dtype=np.int64)      # round trips of the last _RING commands
+        self.rtt_count = 0
+        self.max_missed_in_row = 0
 
     # --- receiving ---------------------------------------------------------------------------------
     def _send(self, data: bytes, addr) -> None:
@@ -96,6 +103,9 @@ class FrankaBox(TickingBox):
             if seq > self.seq:
                 c["rx_bad_seq"] += 1
                 return
+            if self.seq - seq < _RING:   # the round trip of every answered state, late ones included
+                self.rtt_ns[self.rtt_count % _RING] = time.monotonic_ns() - self._sent_ns[seq % _RING]
+                self.rtt_count += 1
             if seq < self.seq:
                 c["late"] += 1
                 return
@@ -151,6 +161,7 @@ class FrankaBox(TickingBox):
             if self.pending is None:
                 c["missed"] += 1
                 self.missed_in_row += 1
+                self.max_missed_in_row = max(self.max_missed_in_row, self.missed_in_row)
                 self.window.append(0)
                 if self.missed_in_row > self.max_missed:
                     self.robot_mode = fp.ROBOT_REFLEX
@@ -189,11 +200,16 @@ class FrankaBox(TickingBox):
             v[4 * n] = (sum(self.window) / len(self.window)) if self.window else 1.0
             fp.HEADER.pack_into(self._out, 0, fp.MAGIC, fp.VERSION, fp.STATE, n, self.seq)
             self._sst.pack_into(self._out, fp.HEADER.size, *v, self.robot_mode, self.errors)
+            self._sent_ns[self.seq % _RING] = time.monotonic_ns()
             self._send(self._out, self.client)
             c["states_sent"] += 1
 
     def stats(self) -> dict:
-        return {"seq": self.seq, "robot_mode": fp.ROBOT_MODE_NAMES[self.robot_mode],
+        k = min(self.rtt_count, _RING)
+        rtt = np.sort(self.rtt_ns[:k]) / 1e3 if k else None
+        rtt_us = ({"rtt_n": k, "rtt_p50_us": float(rtt[k // 2]), "rtt_p99_us": float(rtt[min(k - 1, int(0.99 * k))]),
+                   "rtt_max_us": float(rtt[-1])} if k else {"rtt_n": 0})
+        return {**rtt_us, "max_missed_in_row": self.max_missed_in_row,"seq": self.seq, "robot_mode": fp.ROBOT_MODE_NAMES[self.robot_mode],
                 "errors": fp.error_names(self.errors), "missed_in_row": self.missed_in_row,
                 "success_rate": (sum(self.window) / len(self.window)) if self.window else 1.0,
                 "client": list(self.client) if self.client else None, **self.counters}

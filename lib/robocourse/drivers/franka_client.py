@@ -155,6 +155,13 @@ class Robot:
             if seq > self.answered_seq:
                 got = True
 
+    def resync(self) -> None:
+        """Drop every queued state, so the next :meth:`read_latest` waits for one sent after now
+        (after a pause, the queue holds states the box sent long ago: answering them is late)."""
+        while self._recv(0.0) is not None:
+            pass
+        self.answered_seq = max(self.answered_seq, self.last_seq)
+
     @property
     def success_rate(self) -> float:
         return float(self._rate[0])
@@ -190,6 +197,7 @@ class Robot:
             raise ValueError(f"mode={mode!r} must be 'position' or 'torque'")
         want = JointPositions if mode == "position" else Torques
         code = fp.MODE_POSITION if mode == "position" else fp.MODE_TORQUE
+        self.resync()
         start = time.monotonic()
         prev_seq = None
         while True:
