@@ -163,3 +163,28 @@ def test_box_dies_with_its_parent():
             parent.kill()
         parent.stdout.close()
         parent.stdin.close()
+
+
+@pytest.mark.parametrize("plugin,cycle", [("robocourse/FrankaStyleSystem", lambda cm, n: cm.step(n)),
+                                          ("robocourse/URStyleSystem", ur_cycles)], ids=["franka", "ur"])
+def test_joint_trajectory_controller_runs_a_trajectory_through_the_box(plugin, cycle):
+    from robocourse.msgs.builtin_interfaces import Duration
+    from robocourse.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
+
+    params = {"max_missed": 100_000} if "Franka" in plugin else {}
+    urdf = drivers.arm_urdf(plugin, params, command_interfaces=("position",))
+    cm = bringup(urdf=urdf, param_file=drivers.CONTROLLERS_YAML,
+                 spawn=["joint_state_broadcaster", "joint_trajectory_controller"])
+    try:
+        q0 = states(cm)
+        goal = q0 + np.array([0.3, -0.2, 0.2, 0.0, 0.1, 0.0])
+        msg = JointTrajectory(joint_names=list(drivers.ARM_JOINTS))
+        msg.points.append(JointTrajectoryPoint(positions=list(goal), time_from_start=Duration(sec=0, nanosec=400_000_000)))
+        node = cm.context.create_node("commander")
+        cm.executor.add_node(node)
+        node.create_publisher(JointTrajectory, "/joint_trajectory_controller/joint_trajectory", 10).publish(msg)
+        cycle(cm, 700)
+        np.testing.assert_allclose(states(cm), goal, atol=0.02)
+        assert controller_states(cm)["joint_trajectory_controller"] == ACTIVE
+    finally:
+        cm.shutdown()
