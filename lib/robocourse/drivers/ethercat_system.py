@@ -343,8 +343,7 @@ class EthercatSystem(SystemInterface):
             self.last_error = "the master is not up"
             return return_type.ERROR
         if self.last_wkc != m.expected_wkc:
-            self.last_error = (f"working counter {self.last_wkc}, expected {m.expected_wkc}: "
-                               f"{m.diagnose(self.last_wkc)}")
+            self.last_error = str(m.diagnose(self.last_wkc))   # names the lost / not-OP slaves
             return return_type.ERROR
         st = self.state_values
         for d in self._drive_io:
