@@ -22,13 +22,16 @@ from robocourse.control.log import LogSink
 SPAWN = ["joint_state_broadcaster", "forward_position_controller"]
 
 
+# a generous read_timeout: the machine is shared, and a box stalled by the scheduler for 100 ms
+# must not fail a test that is not about stalls (the fault tests set their own)
 def franka_cm(**params):
-    urdf = drivers.arm_urdf("robocourse/FrankaStyleSystem", {"max_missed": 100_000, **params})
+    urdf = drivers.arm_urdf("robocourse/FrankaStyleSystem", {"max_missed": 100_000, "read_timeout": 2.0, **params})
     return bringup(urdf=urdf, param_file=drivers.CONTROLLERS_YAML, spawn=SPAWN)
 
 
 def ur_cm(**params):
-    urdf = drivers.arm_urdf("robocourse/URStyleSystem", params, command_interfaces=("position",))
+    urdf = drivers.arm_urdf("robocourse/URStyleSystem", {"read_timeout": 2.0, "keepalive": 2.0, **params},
+                            command_interfaces=("position",))
     return bringup(urdf=urdf, param_file=drivers.CONTROLLERS_YAML, spawn=SPAWN)
 
 
@@ -86,7 +89,8 @@ def test_killed_box_makes_read_fail_and_the_manager_deactivates_the_controllers(
         assert controller_states(cm) == {"joint_state_broadcaster": INACTIVE,
                                          "forward_position_controller": INACTIVE}
         assert cm.rm.components["UR5e"].wrapper.state == UNCONFIGURED    # on_error -> unconfigured
-        assert f"pid {pid}" in sys_.last_error or "closed" in sys_.last_error or "no new" in sys_.last_error
+        assert (f"pid {pid}" in sys_.last_error or "closed the RTDE connection" in sys_.last_error
+                or "no new robot state" in sys_.last_error), sys_.last_error
         assert any("went into error" in r.msg or "resulted in an error" in r.msg for r in cm.log.records)
     finally:
         cm.shutdown()
@@ -171,7 +175,8 @@ def test_joint_trajectory_controller_runs_a_trajectory_through_the_box(plugin, c
     from robocourse.msgs.builtin_interfaces import Duration
     from robocourse.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
 
-    params = {"max_missed": 100_000} if "Franka" in plugin else {}
+    params = {"max_missed": 100_000, "read_timeout": 2.0} if "Franka" in plugin else {"read_timeout": 2.0,
+                                                                                          "keepalive": 2.0}
     urdf = drivers.arm_urdf(plugin, params, command_interfaces=("position",))
     cm = bringup(urdf=urdf, param_file=drivers.CONTROLLERS_YAML,
                  spawn=["joint_state_broadcaster", "joint_trajectory_controller"])
