@@ -242,8 +242,8 @@ def _component(el: _El, kind: str) -> ComponentInfo:
                                 "declare each interface once per joint, sensor or gpio")
             seen[key] = c.line
             (comp.command_interfaces if c.tag == "command_interface" else comp.state_interfaces).append(itf)
-        elif c.tag in ("param", "limits"):
-            continue
+        elif c.tag in ("param", "limits", "ec_module"):
+            continue     # <ec_module>: ethercat_driver_ros2's per-joint slave; its plugin reads original_xml
         else:
             raise URDFError(f"invalid tag name '{c.tag}'", c.line, _FIX_TAGS)
     if kind == "sensor" and comp.command_interfaces:
@@ -356,7 +356,8 @@ def _hardware(el: _El, urdf_joints: dict[str, _El], text_lines: list[str]) -> Ha
             info.limits[joint.name] = JointLimits(float(lim.get("lower", "-inf")) if uj.attrib.get("type") != "continuous" else -math.inf,
                                                   float(lim.get("upper", "inf")) if uj.attrib.get("type") != "continuous" else math.inf,
                                                   float(lim.get("velocity", "inf")), float(lim.get("effort", "inf")))
-    end = _last_line(el)
+    end = _last_line(el)    # the last child's line; the element closes at the next </ros2_control>
+    end = next((i + 1 for i in range(end - 1, len(text_lines)) if "</ros2_control>" in text_lines[i]), end)
     info.original_xml = "\n".join(text_lines[el.line - 1:end])
     return info
 

@@ -1,0 +1,112 @@
+"""The Franka-style 1 kHz loop's round trip and command success rate, beside a UDP echo floor.
+
+    PYTHONPATH=lib python benchmarks/driver_roundtrip.py [--seconds 2] [--rounds 3] [--quick]
+
+Rows, each a fresh box process and a client loop in this process (read the state, answer with
+the measured position) for ``--seconds``:
+- "UDP echo": the same box with no physics behind the packets (same datagrams, same 1 ms
+  ticker, two Python processes): the floor of the round trip on this machine;
+- "franka box": the box stepping the UR5e arm in MuJoCo each tick.
+Each under: idle; ``robocourse.rt.disturb.CpuLoad`` with 2 busy processes on the last CPU;
+the same on every CPU; and each with and without the real-time settings
+(``robocourse.rt.settings.realtime``: SCHED_FIFO, locked + prefaulted memory, frozen gc; in
+the box and in the client). Round trip = the box's clock from sending state k to receiving
+the command for k (late ones included). Success = ticks whose command arrived before the next
+tick / ticks. "worst" = the longest run of missed ticks (libfranka-style reflex above 20 by
+our box's default). Each figure is the median over ``--rounds`` rounds, [min-max] beside it.
+The machine is shared with other engineers' test runs while this runs: absolute numbers move
+from run to run; compare rows of the same run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import statistics
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "lib"))
+
+from robocourse.drivers.measure import franka_roundtrip  # noqa: E402
+from robocourse.rt.disturb import CpuLoad  # noqa: E402
+from robocourse.rt.settings import (  # noqa: E402
+    allowed_cpus,
+    current_scheduling,
+    reset_scheduling,
+    set_scheduling,
+)
+
+
+def load(kind: str):
+    cpus = allowed_cpus()
+    if kind == "idle":
+        return contextlib.nullcontext()
+    stack = contextlib.ExitStack()
+    for cpu in (cpus[-1:] if kind == "load1" else cpus):
+        stack.enter_context(CpuLoad(cpu=cpu, processes=2))
+    return stack
+
+
+LOADS = {"idle": "idle", "load1": "2 busy procs on 1 CPU", "loadall": "2 busy procs on every CPU"}
+
+
+def med(values):
+    return statistics.median(values), min(values), max(values)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=2.0)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--quick", action="store_true", help="1 s, 1 round")
+    a = ap.parse_args(argv)
+    if a.quick:
+        a.seconds, a.rounds = 1.0, 1
+    probe = set_scheduling("fifo", quiet=True)
+    rt_ok = probe.ok
+    reset_scheduling()
+    print(f"CPUs {allowed_cpus()}, load average {os.getloadavg()[0]:.1f} (shared machine: other jobs run too); "
+          f"real-time scheduling {'available' if rt_ok else 'REFUSED (RT rows run SCHED_OTHER): ' + str(probe)}; "
+          f"scheduler now {current_scheduling()}")
+    configs = [(ld, rt, phys) for ld in LOADS for rt in (False, True) for phys in (False, True)]
+    results = {c: [] for c in configs}
+    for r in range(a.rounds):
+        for c in configs:           # interleaved: each round runs every configuration once
+            ld, rt, phys = c
+            with load(ld):
+                results[c].append(franka_roundtrip(a.seconds, physics=phys, realtime=rt))
+        print(f"round {r + 1}/{a.rounds} done", flush=True)
+    print(f"\n{'load':<26}{'RT':<4}{'loop':<11}{'p50 us':>16}{'p99 us':>20}{'max us':>22}{'success %':>24}"
+          f"{'worst run':>12}{'reflex@20':>11}")
+    floor = {}
+    for c in configs:
+        ld, rt, phys = c
+        rs = results[c]
+        p50, p99, mx = (med([getattr(x, f) for x in rs]) for f in ("rtt_p50_us", "rtt_p99_us", "rtt_max_us"))
+        sr = med([100 * x.success_rate for x in rs])
+        worst = max(x.max_missed_in_row for x in rs)
+        reflexes = sum(x.would_reflex(20) for x in rs)
+        if not phys:
+            floor[(ld, rt)] = p99[0]
+        ratio = f" x{p99[0] / floor[(ld, rt)]:.1f}" if phys and floor.get((ld, rt)) else ""
+        print(f"{LOADS[ld]:<26}{'yes' if rt else 'no':<4}{'franka' if phys else 'UDP echo':<11}"
+              f"{p50[0]:>7.0f} [{p50[1]:>4.0f}-{p50[2]:<4.0f}]"
+              f"{p99[0]:>8.0f}{ratio:<5} [{p99[1]:>5.0f}-{p99[2]:<5.0f}]"
+              f"{mx[0]:>8.0f} [{mx[1]:>5.0f}-{mx[2]:<6.0f}]"
+              f"{sr[0]:>9.2f} [{sr[1]:>6.2f}-{sr[2]:<6.2f}]"
+              f"{worst:>8d}{reflexes:>7d}/{len(rs)}")
+    idle_rt = [x.success_rate for x in results[("idle", True, True)]]
+    goal = statistics.median(idle_rt) >= 0.999
+    print(f"\ngoal: franka box idle with RT settings >= 99.90% success: median "
+          f"{100 * statistics.median(idle_rt):.2f}% -> {'MET' if goal else 'NOT MET'} on this run")
+    broke = [f"{LOADS[ld]}{' + RT' if rt else ''}" for (ld, rt, phys), rs in results.items()
+             if phys and any(x.would_reflex(20) for x in rs)]
+    print("runs where >20 ticks in a row were missed (a real robot would have stopped): "
+          + (", ".join(broke) if broke else "none"))
+    print("ratio xN = franka p99 / UDP echo p99 under the same load and settings (the physics' and protocol's cost)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

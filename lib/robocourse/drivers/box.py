@@ -1,0 +1,78 @@
+"""Entry point of a box process: ``python -m robocourse.drivers.box {franka|ur} [options]``.
+
+Started by :class:`robocourse.drivers.process.BoxProcess`; prints ``READY name=port ...`` once
+its sockets are bound, then runs until SIGTERM, or until its parent is gone. A failure to start
+(a port in use) exits with code 2 and one line on stderr naming the port and the fix.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+import threading
+import time
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m robocourse.drivers.box")
+    p.add_argument("kind", choices=("franka", "ur"))
+    p.add_argument("--host", default="127.0.0.1")
+    p.add_argument("--port", type=int, default=0, help="franka: UDP port; ur: RTDE port (0 = free)")
+    p.add_argument("--script-port", type=int, default=0, help="ur: script channel port (0 = free)")
+    p.add_argument("--period-us", type=int, default=1000, help="franka: state period in us")
+    p.add_argument("--max-missed", type=int, default=20, help="franka: missed ticks in a row before the reflex")
+    p.add_argument("--keepalive", type=float, default=0.1, help="ur: script keepalive timeout in s")
+    p.add_argument("--initial", default="", help="comma-separated initial joint positions (rad)")
+    p.add_argument("--no-physics", action="store_true", help="franka: no arm behind the packets (round-trip floor)")
+    p.add_argument("--rt", action="store_true", help="try SCHED_FIFO + mlockall for the box")
+    return p
+
+
+def _watch_parent(ppid: int) -> None:
+    while True:
+        if os.getppid() != ppid:
+            os._exit(0)
+        time.sleep(0.5)
+
+
+def main(argv=None) -> int:
+    a = _parser().parse_args(argv)
+    initial = [float(x) for x in a.initial.split(",")] if a.initial else None
+    threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True).start()
+    try:
+        if a.kind == "franka":
+            from .franka_box import FrankaBox
+
+            box = FrankaBox(port=a.port, host=a.host, period_us=a.period_us, max_missed=a.max_missed,
+                            initial_positions=initial, physics=not a.no_physics)
+            ready = f"READY udp={box.port}"
+        else:
+            from .ur_box import URBox
+
+            box = URBox(port=a.port, script_port=a.script_port, host=a.host, keepalive=a.keepalive,
+                        initial_positions=initial)
+            ready = f"READY rtde={box.port} script={box.script_port}"
+    except OSError as exc:
+        print(f"cannot bind {a.kind} box on {a.host} (port {a.port}, script port {a.script_port}): {exc}; "
+              "pick another port or pass 0 for a free one", file=sys.stderr)
+        return 2
+    def stop(signum, frame):
+        box.running = False
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    print(ready, flush=True)
+    if a.rt:
+        from robocourse.rt import settings
+
+        with settings.realtime(quiet=True, heap_size=16 * 1024 * 1024):
+            box.run()
+    else:
+        box.run()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,49 @@
+"""The boxes' main loop: a tick every period on absolute deadlines, sockets served in between.
+
+Counterpart: a robot controller's fixed-rate servo cycle. A box subclasses :class:`TickingBox`
+and provides ``sockets()``, ``on_readable(sock)`` and ``tick()``. When a tick ends past the
+next deadline the box counts ``box_overruns`` and skips the lost ticks instead of bursting to
+catch up (a real controller keeps its rate too).
+"""
+
+from __future__ import annotations
+
+import collections
+import select
+import time
+
+
+class TickingBox:
+    period_ns: int = 1_000_000
+
+    def __init__(self):
+        self.counters = collections.Counter()
+        self.running = True
+        self.t0_ns = time.monotonic_ns()
+
+    def sockets(self) -> list:
+        raise NotImplementedError
+
+    def on_readable(self, sock) -> None:
+        raise NotImplementedError
+
+    def tick(self) -> None:
+        raise NotImplementedError
+
+    def run(self) -> None:
+        period = self.period_ns
+        next_t = time.monotonic_ns() + period
+        while self.running:
+            while True:
+                left = next_t - time.monotonic_ns()
+                if left <= 0:
+                    break
+                readable, _, _ = select.select(self.sockets(), [], [], left * 1e-9)
+                for s in readable:
+                    self.on_readable(s)
+            self.tick()
+            next_t += period
+            behind = time.monotonic_ns() - next_t
+            if behind > 0:
+                self.counters["box_overruns"] += 1
+                next_t += (behind // period + 1) * period

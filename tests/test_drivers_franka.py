@@ -1,0 +1,192 @@
+"""The Franka-style box and its libfranka-like client over real loopback UDP (no timed assertions:
+the machine is shared, so the reflex tests stop answering on purpose and the others allow many misses)."""
+
+from __future__ import annotations
+
+import socket
+import struct
+import time
+
+import numpy as np
+import pytest
+
+from robocourse.drivers import BoxStartError, start_franka_box
+from robocourse.drivers import franka_protocol as fp
+from robocourse.drivers.franka_client import (
+    ControlException,
+    JointPositions,
+    NetworkException,
+    Robot,
+    Torques,
+)
+
+LENIENT = 100_000   # missed ticks in a row before the reflex, when a test is not about the reflex
+
+
+@pytest.fixture
+def box():
+    b = start_franka_box(max_missed=LENIENT)
+    yield b
+    b.stop()
+
+
+def wait_for(cond, seconds=5.0):
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if cond():
+            return True
+        time.sleep(0.01)
+    return False
+
+
+def test_state_carries_six_joints_and_increasing_sequence_numbers(box):
+    with Robot(port=box.ports["udp"]) as robot:
+        assert (robot.n, robot.period_us, robot.max_missed) == (6, 1000, LENIENT)
+        s1 = robot.read_once()
+        s2 = robot.read_once()
+        assert s2.seq > s1.seq >= 1
+        np.testing.assert_allclose(s1.q, [0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0.0], atol=1e-3)
+        assert s1.robot_mode == "idle" and s1.current_errors == []
+        assert s1.tau_J.shape == (6,) and abs(s1.tau_J[1]) > 1.0   # the shoulder holds the arm up
+
+
+def test_position_control_moves_joint_to_the_commanded_ramp_end(box):
+    with Robot(port=box.ports["udp"]) as robot:
+        q0 = robot.read_once().q
+
+        def ramp(state, period):
+            ramp.k += 1
+            q = q0.copy()
+            q[0] += 0.3 * min(1.0, ramp.k / 500)
+            return JointPositions(q, motion_finished=ramp.k >= 1500)
+
+        ramp.k = 0
+        last = robot.control(ramp)
+        assert ramp.k == 1500
+        assert abs(last.q[0] - (q0[0] + 0.3)) < 0.01
+        assert wait_for(lambda: robot.read_once().robot_mode == "idle")   # motion_finished ended the motion
+        stats = robot.box_stats()
+        assert stats["commands_ok"] + stats["missed"] == stats["ticks_moving"]
+        # every command sent is accounted for: applied, late (after the next tick) or replaced by a later one
+        assert stats["commands_ok"] + stats.get("late", 0) + stats.get("duplicates", 0) == 1500
+
+
+def test_zero_torque_command_holds_because_the_box_adds_gravity(box):
+    with Robot(port=box.ports["udp"]) as robot:
+        q0 = robot.read_once().q
+
+        def zero(state, period):
+            zero.k += 1
+            return Torques(np.zeros(6), motion_finished=zero.k >= 500)
+
+        zero.k = 0
+        last = robot.control(zero, mode="torque")
+        assert np.max(np.abs(last.q - q0)) < 0.02
+
+
+def test_missing_commands_trigger_reflex_arm_holds_until_recovery():
+    box = start_franka_box(max_missed=5)
+    try:
+        with Robot(port=box.ports["udp"]) as robot:
+            robot.read_latest()
+            robot.write_command(robot.q.copy())        # one command: the robot is moving
+            assert wait_for(lambda: robot.read_latest(0.1) and robot.errors != 0)
+            assert fp.error_names(robot.errors) == ["communication_constraints_violation"]
+            assert robot.robot_mode == fp.ROBOT_REFLEX
+            q_reflex = robot.q.copy()
+            for _ in range(20):                        # commands are ignored while in reflex
+                robot.read_latest()
+                target = q_reflex.copy()
+                target[0] += 0.5
+                robot.write_command(target)
+            robot.read_latest()
+            assert np.max(np.abs(robot.q - q_reflex)) < 1e-3       # brakes: the arm holds
+            stats = robot.box_stats()
+            assert stats["reflexes"] == 1 and stats["missed"] >= 6 and stats["ignored_in_reflex"] >= 1
+            with pytest.raises(ControlException, match="communication_constraints_violation"):
+                robot.control(lambda s, p: JointPositions(s.q))
+            assert robot.automatic_error_recovery() == []
+            robot.read_latest()
+            assert robot.errors == 0 and robot.robot_mode == fp.ROBOT_IDLE
+            assert robot.box_stats()["recoveries"] == 1
+    finally:
+        box.stop()
+
+
+def raw_socket(box):
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.connect(("127.0.0.1", box.ports["udp"]))
+    s.settimeout(2.0)
+    return s
+
+
+def test_malformed_datagrams_are_counted_by_reason_and_ignored(box):
+    with Robot(port=box.ports["udp"]) as robot:
+        robot.read_latest()
+        seq = robot.last_seq
+        n = robot.n
+        bad = robot.sock                     # the connected client's socket: not "foreign"
+        bad.send(b"RCF")                                                             # short
+        bad.send(struct.pack("<4sBBHQ", b"RCFR", 2, fp.COMMAND, n, seq) + bytes(56))  # version 2
+        bad.send(struct.pack("<4sBBHQ", b"XXXX", 1, fp.COMMAND, n, seq) + bytes(56))  # magic
+        bad.send(fp.header(42))                                                      # unknown type
+        bad.send(fp.encode_command(n, seq + 10_000, fp.MODE_POSITION, robot.q))      # future seq
+        bad.send(fp.encode_command(n, 0, fp.MODE_POSITION, robot.q))                 # old seq
+        bad.send(fp.header(fp.COMMAND, 7, seq) + bytes(64))                          # 7 joints
+        bad.send(fp.encode_command(n, seq, fp.MODE_POSITION, robot.q)[:-8])           # cut short
+        stats = robot.box_stats()
+        assert stats["rx_short"] == 1
+        assert stats["rx_bad_version"] == 1
+        assert stats["rx_bad_magic"] == 1
+        assert stats["rx_bad_type"] == 1
+        assert stats["rx_bad_seq"] == 1
+        assert stats["late"] >= 1
+        assert stats["rx_bad_length"] == 2
+        before = robot.read_once().seq
+        assert robot.read_once().seq > before            # the box keeps streaming
+    assert box.alive()
+
+
+def test_second_client_is_refused_while_the_first_keeps_its_stream(box):
+    with Robot(port=box.ports["udp"]) as first:
+        with pytest.raises(NetworkException, match="busy: another client"):
+            Robot(port=box.ports["udp"])
+        assert first.read_once().seq > 0
+        assert first.box_stats()["rejected_connects"] == 1
+    with Robot(port=box.ports["udp"]) as again:      # after DISCONNECT a new client is welcome
+        assert again.read_once().seq > 0
+
+
+def test_port_in_use_refuses_to_start_with_the_port_named():
+    taken = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    taken.bind(("127.0.0.1", 0))
+    port = taken.getsockname()[1]
+    try:
+        with pytest.raises(BoxStartError, match=rf"port {port}.*Address already in use.*pass 0 for a free one"):
+            start_franka_box(port=port)
+    finally:
+        taken.close()
+
+
+def test_client_refuses_port_zero_and_reports_a_silent_box():
+    with pytest.raises(ValueError, match="port=0"):
+        Robot(port=0)
+    silent = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    silent.bind(("127.0.0.1", 0))
+    try:
+        with pytest.raises(NetworkException, match="within 0.3 s"):
+            Robot(port=silent.getsockname()[1], timeout=0.3)
+    finally:
+        silent.close()
+
+
+def test_killed_box_makes_the_client_raise_network_exception():
+    box = start_franka_box(max_missed=LENIENT)
+    robot = Robot(port=box.ports["udp"], timeout=0.3)
+    robot.read_once()
+    box.kill()
+    with pytest.raises(NetworkException):
+        for _ in range(1000):
+            robot.read_once()
+    robot.close()
+    box.stop()
