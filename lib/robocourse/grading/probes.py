@@ -70,8 +70,17 @@ def call(func, *args, **kwargs) -> dict:
     except NotImplementedError:
         raise
     except Exception as exc:
-        return {"raised": type(exc).__name__, "message": str(exc)[:300]}
+        return {"raised": type(exc).__name__, "bases": [c.__name__ for c in type(exc).__mro__],
+                "message": str(exc)[:300]}
     return {"value": plain(value), "type": type(value).__name__}
+
+
+def raised(record, exception_name: str) -> bool:
+    """True if a :func:`call` record shows an exception of that class or a subclass of it."""
+    if not isinstance(record, dict) or "raised" not in record:
+        return False
+    bases = record.get("bases")
+    return exception_name in (bases if isinstance(bases, list) else [record["raised"]])
 
 
 def calls(inputs, *objects):

@@ -80,6 +80,8 @@ def main(argv=None) -> int:
     def write_status():
         (folder / STATUS).write_text(json.dumps(status))
 
+    # a write past the file-size limit fails with EFBIG instead of killing the run
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     request = json.loads((folder / REQUEST).read_text())
     (folder / REQUEST).unlink()
     cell_timeout = float(request.get("cell_timeout", 60))

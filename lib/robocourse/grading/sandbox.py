@@ -53,7 +53,7 @@ class Limits:
     memory_mb: int = 4096
     max_processes: int = 64
     output_bytes: int = 2_000_000  # bytes of stdout/stderr kept for the instructor's log
-    file_bytes: int = 256 * 1024 * 1024  # the largest file the submission may write
+    file_bytes: int = 64 * 1024 * 1024  # the largest file the submission may write
 
     def __post_init__(self):
         if not self.time_s > 0:

@@ -57,7 +57,7 @@ def _pair(got) -> tuple[float, float] | None:
 def check_kinematics(inputs, outputs):
     """inverse/forward differential-drive kinematics agree with the model and with each other."""
     f = Failures()
-    for (v, w, b), got in zip(inputs, outputs):
+    for (v, w, b), got in zip(inputs, outputs, strict=True):
         inv = _pair(got["inverse"])
         ref = kin.twist_to_wheel_speeds(v, w, kin.DiffDriveGeometry(wheel_base=b))
         if inv is None:
@@ -71,7 +71,7 @@ def check_kinematics(inputs, outputs):
             f.add(f"inverse_kinematics({v:.3f}, {w:.3f}, {b:.3f}) = ({inv[0]:.4f}, {inv[1]:.4f}), expected "
                   f"({ref[0]:.4f}, {ref[1]:.4f}): each wheel moves at v -+ w * wheel_base / 2{hint}")
             break
-    for (v, w, b), got in zip(inputs, outputs):
+    for (v, w, _b), got in zip(inputs, outputs, strict=True):
         fwd = _pair(got["forward"]) if isinstance(got["forward"], dict) else None
         if fwd is None or not (math.isclose(fwd[0], v, abs_tol=1e-9) and math.isclose(fwd[1], w, abs_tol=1e-9)):
             shown = f"({fwd[0]:.4f}, {fwd[1]:.4f})" if fwd else repr(got["forward"].get("raised"))

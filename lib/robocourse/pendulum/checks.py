@@ -130,6 +130,8 @@ def check_textbook_pid(inputs, outputs):
               "derivative kick; take the derivative of the measurement, not of the error (and keep the setpoint "
               "in an attribute named setpoint)")
     outs = [number(v) for v in outputs["saturated"]]
+    if len(outs) != 200:
+        raise CheckFailed(f"the saturation test made 200 updates, {len(outs)} outputs came back")
     if max(outs) > 1.0 + 1e-12 or min(outs) < -1.0 - 1e-12:
         f.add(f"output left [u_min, u_max] = [-1, 1]: saw {min(outs):.3g}..{max(outs):.3g}; clamp it")
     released = number(outputs["released"])
@@ -190,7 +192,7 @@ def check_delay_margin(inputs, outputs):
 
     f = Failures()
     shown = []
-    for case, got in zip(inputs, outputs):
+    for case, got in zip(inputs, outputs, strict=True):
         _, pm_deg, w_pc, w_gc = control.margin(control.tf(case["num"], case["den"]))
         pm = math.radians(pm_deg)
         want = pm / w_gc

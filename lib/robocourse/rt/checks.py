@@ -59,7 +59,7 @@ def _stats_probe(inputs, rttest_statistics):
 def check_rttest_stats(inputs, outputs):
     """rttest_statistics(latency_ns, minor, major) returns rttest's six numbers."""
     f = Failures()
-    for (lat, minor, major), got in zip(inputs, outputs):
+    for (lat, minor, major), got in zip(inputs, outputs, strict=True):
         lat = np.asarray(lat, dtype=np.int64)
         where = f"(for {len(lat)} samples starting {list(lat[:3])})"
         if "raised" in got:
@@ -243,7 +243,7 @@ def check_budget(inputs, outputs):
     """controller_budget_ns(period, latency, percentile) and meets_5_percent(latency, period)."""
     lat, period = np.asarray(inputs["latency"]), inputs["period"]
     f = Failures()
-    for q, got in zip(inputs["percentiles"], outputs["budget"]):
+    for q, got in zip(inputs["percentiles"], outputs["budget"], strict=True):
         expected = max(0.0, period - float(np.percentile(lat, q)))
         if "raised" in got:
             f.add(f"controller_budget_ns(1 ms, latencies, {q:g}) raised {got['raised']}: {got['message']}")
@@ -258,7 +258,7 @@ def check_budget(inputs, outputs):
     late = outputs["late"]
     if "raised" in late or number(late["value"]) != 0:
         f.add("when the tail latency exceeds the whole period no budget is left: return 0, not a negative number")
-    for (samples, ok), got in zip(inputs["meets"], outputs["meets"]):
+    for (samples, ok), got in zip(inputs["meets"], outputs["meets"], strict=True):
         if "raised" in got or bool(got["value"]) != ok:
             shown = samples if len(samples) < 5 else f"[{samples[0]}, ... {len(samples)} samples, max {max(samples)}]"
             f.add(f"meets_5_percent({shown}, 1 ms) should be {ok}: the seed's rule is max latency <= 5 % of the "

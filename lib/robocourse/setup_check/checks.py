@@ -10,10 +10,10 @@ from __future__ import annotations
 from decimal import Decimal, InvalidOperation
 
 from ..grading import Failures, register
-from ..grading.probes import call
+from ..grading.probes import call, raised
 
 UNITS = {"ns": 1, "us": 1_000, "ms": 1_000_000, "s": 1_000_000_000, "": 1_000}
-FIXED = ["1ms", "250us", "500", "2s", "100ns", "1.5ms", "0.5s"]
+FIXED = ["1ms", "250us", "500", "2s", "100ns", "1.5ms", "0.5s", "4.1ms"]  # 4.1 * 1e6 < 4_100_000 in floats
 BAD_DURATIONS = ["", "abc", "-1ms", "1 minute", "ms", "1kHz", "0", "0us"]
 
 
@@ -49,7 +49,7 @@ def _to_ns_probe(inputs, to_ns):
 def check_to_ns(inputs, outputs):
     """to_ns parses rttest's -u durations (bare number = microseconds)."""
     f = Failures()
-    for text, got in zip(inputs["good"], outputs["good"]):
+    for text, got in zip(inputs["good"], outputs["good"], strict=True):
         want = expected_ns(text)
         if "raised" in got:
             f.add(f"to_ns({text!r}) raised {got['raised']}: {got['message']}; expected {want}")
@@ -62,8 +62,8 @@ def check_to_ns(inputs, outputs):
             elif not text.rstrip("0123456789.") and got["value"] * 1000 == want:
                 hint = " (a bare number means microseconds, as in rttest -u)"
             f.add(f"to_ns({text!r}) returned {got['value']}, expected {want}{hint}")
-    for text, got in zip(inputs["bad"], outputs["bad"]):
-        if got.get("raised") != "ValueError":
+    for text, got in zip(inputs["bad"], outputs["bad"], strict=True):
+        if not raised(got, "ValueError"):
             what = f"raised {got['raised']}" if "raised" in got else f"returned {got['value']!r}"
             f.add(f"to_ns({text!r}) {what}; a period must be a positive duration, so raise ValueError with a "
                   "message naming the value and the accepted suffixes")
@@ -92,20 +92,20 @@ def _value(got):
 def check_budget(inputs, outputs):
     """latency_budget_ns gives the 5 % latency budget of a period."""
     f = Failures()
-    for period, got in zip(inputs["periods"], outputs["default"]):
+    for period, got in zip(inputs["periods"], outputs["default"], strict=True):
         want = period * 0.05
         v = _value(got)
         if v is None or abs(v - want) > 1:
             shown = f"raised {got['raised']}" if "raised" in got else f"returned {got.get('value')!r}"
             f.add(f"latency_budget_ns({period}) {shown}; 5 % of {period} ns is {round(want)} ns")
-    for fraction, got in zip(inputs["fractions"], outputs["fraction"]):
+    for fraction, got in zip(inputs["fractions"], outputs["fraction"], strict=True):
         want = 1_000_000 * fraction
         v = _value(got)
         if v is None or abs(v - want) > 1:
             f.add(f"latency_budget_ns(1_000_000, fraction={fraction}) returned {got.get('value', got.get('raised'))!r}, "
                   f"expected {round(want)}")
-    for period, got in zip(inputs["bad"], outputs["bad"]):
-        if got.get("raised") != "ValueError":
+    for period, got in zip(inputs["bad"], outputs["bad"], strict=True):
+        if not raised(got, "ValueError"):
             f.add(f"latency_budget_ns({period}) should raise ValueError: a period must be positive")
     return f.done("the 1 kHz budget is 50 us, and every other period and fraction right")
 
@@ -150,7 +150,7 @@ def check_limits_conf(inputs, outputs):
     if _norm(outputs["custom"]) != want:
         f.add(f"limits_conf_lines({b!r}, rtprio={prio}, memlock_kb={mem}) returned "
               f"{outputs['custom'].get('value', outputs['custom'].get('raised'))!r}, expected {want}")
-    for prio, got in zip(inputs["bad"], outputs["bad"]):
-        if got.get("raised") != "ValueError":
+    for prio, got in zip(inputs["bad"], outputs["bad"], strict=True):
+        if not raised(got, "ValueError"):
             f.add(f"rtprio={prio} should raise ValueError: use 1..98 (99 belongs to the kernel's watchdog threads)")
     return f.done("both lines right for any user, and priority 99 refused")
