@@ -41,6 +41,8 @@ from typing import Any
 import numpy as np
 
 EXTRA_CHECKS_ENV = "ROBOCOURSE_EXTRA_CHECKS"
+MAX_LISTED = 8  # problems listed per check; the rest are counted
+MAX_LINE = 400  # characters per feedback line (a student's value can be any size)
 
 
 class CheckFailed(AssertionError):
@@ -80,7 +82,10 @@ class Failures:
 
     def done(self, success_message: str) -> str:
         if self.messages:
-            raise CheckFailed(*self.messages)
+            shown = self.messages[:MAX_LISTED]
+            if len(self.messages) > MAX_LISTED:
+                shown.append(f"... and {len(self.messages) - MAX_LISTED} more problem(s) like these")
+            raise CheckFailed(*shown)
         return success_message
 
 
@@ -368,6 +373,7 @@ def judge(chk: Check, inputs, probed: dict | None) -> Result:
     start = time.perf_counter()
 
     def result(passed, message, reason=""):
+        message = "\n".join(m if len(m) <= MAX_LINE else m[:MAX_LINE] + " [...]" for m in str(message).splitlines())
         return Result(chk.name, passed, chk.weight if passed else 0.0, chk.weight, message,
                       float(probed.get("seconds", 0.0)) if isinstance(probed, dict) and
                       isinstance(probed.get("seconds"), (int, float)) else time.perf_counter() - start,
