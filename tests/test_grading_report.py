@@ -13,7 +13,15 @@ from pathlib import Path
 import pytest
 
 from robocourse.grading import report, sandbox
-from robocourse.grading.grader import Assignment, Grade, GradeList, Journal, expand, identify, write_csv
+from robocourse.grading.grader import (
+    Assignment,
+    Grade,
+    GradeList,
+    Journal,
+    expand,
+    identify,
+    write_csv,
+)
 
 ASSIGNMENTS = {"00_setup_exercises": Assignment("00_setup_exercises", Path("s.ipynb"), ["ch00.a"]),
                "01_realtime_exercises": Assignment("01_realtime_exercises", Path("r.ipynb"), ["ch01.a"])}

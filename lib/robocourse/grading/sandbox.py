@@ -200,6 +200,7 @@ def _alive(p: psutil.Process) -> bool:
 
 
 def _kill(procs: list[psutil.Process]) -> None:
+    procs = [p for p in procs if _alive(p)]  # waiting on a dead non-child costs psutil seconds
     for p in procs:
         try:
             p.kill()
