@@ -209,3 +209,9 @@ def test_grading_package_imports_no_chapter_by_name(root):
     found = {c.judge.__module__ for c in checks.discover().values()}
     assert {"robocourse.setup_check.checks", "robocourse.rt.checks", "robocourse.pendulum.checks",
             "robocourse.mycar.checks"} <= found
+
+
+def test_score_cell_shows_only_the_table():
+    _register("test.a", _doubles, weight=1, in_notebook=True)
+    s = checks.score("test", quiet=True)
+    assert s == (0.0, 1.0) and s._ipython_display_() is None

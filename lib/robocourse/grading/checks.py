@@ -448,7 +448,14 @@ def reset() -> None:
     _RESULTS.clear()
 
 
-def score(names: str | list[str] | None = None, *, quiet: bool = False) -> tuple[float, float]:
+class Score(tuple):
+    """(points, max points); a score cell shows the printed table only, not this tuple."""
+
+    def _ipython_display_(self):
+        """score() has already printed the table."""
+
+
+def score(names: str | list[str] | None = None, *, quiet: bool = False) -> Score:
     """Print "Score: X/Y" and a line per check; return (points, max points).
 
     ``names``: a chapter prefix (``score("ch01")``: every check of the notebook named
@@ -458,7 +465,7 @@ def score(names: str | list[str] | None = None, *, quiet: bool = False) -> tuple
     discover()
     if isinstance(names, str):
         prefix = names.rstrip(".") + "."
-        names = sorted(n for n, c in _REGISTRY.items() if n.startswith(prefix) and c.in_notebook)
+        names = [n for n, c in _REGISTRY.items() if n.startswith(prefix) and c.in_notebook]
         if not names:
             raise KeyError(f"no checks registered under {prefix!r}; is the chapter prefix right?")
     names = list(names) if names is not None else list(_RESULTS)
@@ -477,4 +484,4 @@ def score(names: str | list[str] | None = None, *, quiet: bool = False) -> tuple
         print(f"Score: {points:g}/{total:g}")
         for line in lines:
             print("  " + line.replace("\n", "\n  "))
-    return points, total
+    return Score((points, total))
