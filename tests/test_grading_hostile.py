@@ -79,7 +79,16 @@ for name, chk in list(C._REGISTRY.items()):
 G.check = lambda name, *o, **k: print('[PASS] patched')
 """
 
-NEIGHBOURS = """
+APPEND = """
+def append(path, text):
+    try:
+        with open(path, 'a') as fh:
+            fh.write(text)
+    except OSError as exc:
+        print('blocked', path, exc)
+"""
+
+NEIGHBOURS = APPEND + """
 import glob, os
 CLASS, OUT = {cls!r}, {out!r}
 for path in glob.glob(CLASS + '/*/*.ipynb') + glob.glob('../*/*.ipynb') + glob.glob('/submission/../*/*.ipynb'):
@@ -90,23 +99,15 @@ for path in glob.glob(CLASS + '/*/*.ipynb') + glob.glob('../*/*.ipynb') + glob.g
         except OSError as exc:
             print('blocked', path, exc)
 for path in glob.glob(OUT + '/*') + glob.glob(OUT + '/feedback/*'):
-    try:
-        with open(path, 'a') as fh:
-            fh.write('hacked')
-    except OSError as exc:
-        print('blocked', path, exc)
+    append(path, 'hacked')
 """
 
-LIBRARY = """
+LIBRARY = APPEND + """
 import pathlib, robocourse
 lib = pathlib.Path(robocourse.__file__).parent
 for path in [lib / 'grading' / 'checks.py', lib / 'setup_check' / 'checks.py', pathlib.Path({hidden!r}) / 'hidden_ch00.py',
              pathlib.Path(robocourse.__file__).parents[2] / 'solutions' / '{a}.ipynb']:
-    try:
-        with open(path, 'a') as fh:
-            fh.write('\\n# hostile-submission-was-here\\n')
-    except OSError as exc:
-        print('blocked', path, exc)
+    append(path, '\\n# hostile-submission-was-here\\n')
 """.replace("{a}", ASSIGNMENT)
 
 STEAL = """

@@ -57,11 +57,7 @@ def run(name, *objects, seed=0):
     return run_check(get(name), *objects, rng=np.random.default_rng(seed))
 
 
-class WrongSign(GoodPID):
-    def __init__(self, kp, ki, kd, setpoint=0.0, u_min=-math.inf, u_max=math.inf):
-        self.kp, self.ki, self.kd, self.setpoint, self.lo, self.hi = kp, ki, kd, setpoint, u_min, u_max
-        self.i, self.last = 0.0, None
-
+class WrongSign(DerivativeOnError):
     def update(self, y, dt):
         e = self.setpoint - y
         cand = self.i + e * dt

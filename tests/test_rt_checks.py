@@ -21,14 +21,22 @@ def sample_stddev(lat, minor, major):
     return d
 
 
-def absolute_loop(clock, period_ns, iterations, callback):
-    start, out = clock.now_ns(), []
-    for k in range(iterations):
-        deadline = start + (k + 1) * period_ns
-        clock.sleep_until_ns(deadline)
-        out.append(clock.now_ns() - deadline)
-        callback(k)
-    return out
+def grid_loop(first_k):
+    """A loop sleeping to start + (k + first_k) * period: first_k = 1 is right, 0 and 2 are off by one."""
+
+    def loop(clock, period_ns, iterations, callback):
+        start, out = clock.now_ns(), []
+        for k in range(iterations):
+            deadline = start + (k + first_k) * period_ns
+            clock.sleep_until_ns(deadline)
+            out.append(clock.now_ns() - deadline)
+            callback(k)
+        return out
+
+    return loop
+
+
+absolute_loop, off_by_one_grid, skips_a_period = grid_loop(1), grid_loop(0), grid_loop(2)
 
 
 def sampled_after_callback(clock, period_ns, iterations, callback):
@@ -47,27 +55,6 @@ def now_plus_period(clock, period_ns, iterations, callback):
         t0 = clock.now_ns()
         clock.sleep_until_ns(t0 + period_ns)
         out.append(clock.now_ns() - t0 - period_ns)
-        callback(k)
-    return out
-
-
-def off_by_one_grid(clock, period_ns, iterations, callback):
-    """Deadlines start + k * period from k = 0: the first 'wait' is at the start itself."""
-    start, out = clock.now_ns(), []
-    for k in range(iterations):
-        deadline = start + k * period_ns
-        clock.sleep_until_ns(deadline)
-        out.append(clock.now_ns() - deadline)
-        callback(k)
-    return out
-
-
-def skips_a_period(clock, period_ns, iterations, callback):
-    start, out = clock.now_ns(), []
-    for k in range(iterations):
-        deadline = start + (k + 2) * period_ns
-        clock.sleep_until_ns(deadline)
-        out.append(clock.now_ns() - deadline)
         callback(k)
     return out
 

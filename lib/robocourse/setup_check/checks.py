@@ -82,6 +82,13 @@ def _budget_probe(inputs, latency_budget_ns):
             "bad": [call(latency_budget_ns, p) for p in inputs["bad"]]}
 
 
+def _must_refuse(f: Failures, bad_inputs, outputs, message: str) -> None:
+    """Each bad input must have raised ValueError (or a subclass); ``message`` formats the input."""
+    for value, got in zip(bad_inputs, outputs, strict=True):
+        if not raised(got, "ValueError"):
+            f.add(message.format(value))
+
+
 def _value(got):
     v = got.get("value")
     return v if isinstance(v, (int, float)) and not isinstance(v, bool) else None
@@ -104,9 +111,8 @@ def check_budget(inputs, outputs):
         if v is None or abs(v - want) > 1:
             f.add(f"latency_budget_ns(1_000_000, fraction={fraction}) returned {got.get('value', got.get('raised'))!r}, "
                   f"expected {round(want)}")
-    for period, got in zip(inputs["bad"], outputs["bad"], strict=True):
-        if not raised(got, "ValueError"):
-            f.add(f"latency_budget_ns({period}) should raise ValueError: a period must be positive")
+    _must_refuse(f, inputs["bad"], outputs["bad"], "latency_budget_ns({}) should raise ValueError: a period must "
+                 "be positive")
     return f.done("the 1 kHz budget is 50 us, and every other period and fraction right")
 
 
@@ -150,7 +156,6 @@ def check_limits_conf(inputs, outputs):
     if _norm(outputs["custom"]) != want:
         f.add(f"limits_conf_lines({b!r}, rtprio={prio}, memlock_kb={mem}) returned "
               f"{outputs['custom'].get('value', outputs['custom'].get('raised'))!r}, expected {want}")
-    for prio, got in zip(inputs["bad"], outputs["bad"], strict=True):
-        if not raised(got, "ValueError"):
-            f.add(f"rtprio={prio} should raise ValueError: use 1..98 (99 belongs to the kernel's watchdog threads)")
+    _must_refuse(f, inputs["bad"], outputs["bad"], "rtprio={} should raise ValueError: use 1..98 (99 belongs to the "
+                 "kernel's watchdog threads)")
     return f.done("both lines right for any user, and priority 99 refused")
