@@ -215,3 +215,10 @@ def test_score_cell_shows_only_the_table():
     _register("test.a", _doubles, weight=1, in_notebook=True)
     s = checks.score("test", quiet=True)
     assert s == (0.0, 1.0) and s._ipython_display_() is None
+
+
+def test_inside_the_grading_sandbox_check_cells_defer_to_the_grader(monkeypatch, capsys):
+    _register("test.double", _doubles)
+    monkeypatch.setenv(checks.GRADING_ENV, "1")
+    r = checks.check("test.double", lambda x: 2 * x)
+    assert (r.passed, r.points, r.reason) == (False, 0.0, "deferred") and capsys.readouterr().out == ""

@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 EXTRA_CHECKS_ENV = "ROBOCOURSE_EXTRA_CHECKS"
+GRADING_ENV = "ROBOCOURSE_GRADING"  # set to "1" in every grading sandbox
 MAX_LISTED = 8  # problems listed per check; the rest are counted
 MAX_LINE = 400  # characters per feedback line (a student's value can be any size)
 
@@ -432,9 +433,15 @@ def check(name: str, *objects, quiet: bool = False) -> Result:
     if len(objects) != len(chk.uses):
         raise TypeError(f"check({name!r}, ...) takes {len(chk.uses)} object(s): {', '.join(chk.uses)}; "
                         f"got {len(objects)}")
-    result = run_check(chk, *objects)
+    if os.environ.get(GRADING_ENV) == "1":
+        # inside ``robocourse grade``'s sandbox: the grader probes these objects itself after this
+        # cell and judges outside; computing the feedback here would only cost time
+        result = Result(name, False, 0.0, chk.weight, "graded by robocourse grade, outside this notebook",
+                        reason="deferred")
+    else:
+        result = run_check(chk, *objects)
     _RESULTS[name] = result
-    if not quiet:
+    if not quiet and result.reason != "deferred":
         print(result.line())
     return result
 

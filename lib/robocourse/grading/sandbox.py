@@ -39,6 +39,8 @@ from pathlib import Path
 
 import psutil
 
+from .checks import GRADING_ENV
+
 #: Environment variables a submission may see (everything else, e.g. tokens, is dropped).
 ENV_ALLOW = ("LANG", "LC_ALL", "TZ")
 SANDBOX_ROOT = "/submission"
@@ -118,7 +120,7 @@ def clean_env(home: str, marker: str) -> dict:
         "PATH": f"{Path(sys.executable).parent}:/usr/local/bin:/usr/bin:/bin",
         "HOME": home, "TMPDIR": f"{home}/tmp", "USER": "student", "LOGNAME": "student",
         "MPLBACKEND": "Agg", "MPLCONFIGDIR": f"{home}/tmp", "IPYTHONDIR": f"{home}/tmp/ipython",
-        "ROBOCOURSE_TEST": "1", "ROBOCOURSE_GRADING": "1", "PYTHONDONTWRITEBYTECODE": "1",
+        "ROBOCOURSE_TEST": "1", GRADING_ENV: "1", "PYTHONDONTWRITEBYTECODE": "1",
         "PYTHONHASHSEED": "0", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
         "ROBOCOURSE_SANDBOX_ID": marker,
     })
