@@ -177,3 +177,17 @@ def test_bounded_reader_refuses_symlinks_and_caps_bytes(tmp_path):
     assert sandbox.read_bounded(big, 100) == ("x" * 100, True)
     (tmp_path / "link").symlink_to("/etc/hostname")
     assert sandbox.read_bounded(tmp_path / "link", 100) == ("", False)
+
+
+def test_a_grader_failure_is_reported_and_not_journaled(tmp_path, root, monkeypatch):
+    from robocourse.grading import grader
+
+    def broken(*a, **k):
+        raise OSError("bwrap vanished")
+
+    monkeypatch.setattr(grader, "grade_one", broken)
+    out = tmp_path / "g.csv"
+    [g] = grader.grade([str(root / "solutions" / "00_setup_exercises.ipynb")], solutions_dir=root / "solutions",
+                       out=out)
+    assert "the grader failed (OSError: bwrap vanished)" in g.status and g.instructor
+    assert not Path(f"{out}.journal.jsonl").exists() or Path(f"{out}.journal.jsonl").read_text() == ""

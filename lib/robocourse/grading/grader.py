@@ -412,7 +412,13 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
             g = Grade.from_json(journal.done[key])
             g.resumed = True
             return g
-        g = grade_one(s, a, limits=limits, cell_timeout=cell_timeout, mode=mode, workroot=workroot)
+        try:
+            g = grade_one(s, a, limits=limits, cell_timeout=cell_timeout, mode=mode, workroot=workroot)
+        except Exception as exc:  # the grader's own failure: reported, never blamed on the student
+            g = Grade(s.student, s.path, a.name if a else "?", notes=list(s.notes),
+                      status=f"not graded: the grader failed ({type(exc).__name__}: {str(exc)[:200]})",
+                      instructor=[f"{s.path}: the grader raised {type(exc).__name__}: {str(exc)[:200]}"])
+            return g  # not journaled: a re-run grades it again
         if journal:
             journal.append(key, g)
         return g
