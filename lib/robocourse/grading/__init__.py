@@ -3,7 +3,8 @@
 Counterparts: otter-grader (``grader.check``, ``otter grade``), nbgrader (solution markers,
 generated student version, autograde) and Gradescope's throwaway container per submission.
 This package knows no chapter: each chapter's checks live in ``robocourse/<chapter>/checks.py``
-and are found by walking the package (``discover``); instructors add hidden checks from a
+and are declared in pyproject.toml as a ``robocourse.checks`` entry point (``discover`` loads
+the group; a new chapter adds one line there); instructors add hidden checks from a
 folder (``robocourse grade --checks DIR``), kept outside lib/ and outside every sandbox.
 
 Writing a check (the API chapter authors use)

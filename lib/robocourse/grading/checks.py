@@ -16,18 +16,19 @@ small functions:
 In a notebook, ``check("ch00.to_ns", to_ns)`` runs all three in the student's kernel at once
 for instant feedback; ``score("ch00")`` prints "Score: X/Y". The bulk grader ignores whatever
 the notebook computed: it sends the inputs into the sandbox, reads back the probe's data and
-judges it itself. Chapters register their checks in ``robocourse/<chapter>/checks.py``;
-``discover`` imports every such module it finds, so this package never names a chapter.
+judges it itself. Chapters register their checks in ``robocourse/<chapter>/checks.py`` and
+declare that module as a ``robocourse.checks`` entry point; ``discover`` loads the entry
+points, so this package never names (or imports by pattern) a chapter.
 """
 
 from __future__ import annotations
 
 import contextlib
 import importlib
+import importlib.metadata
 import importlib.util
 import inspect
 import os
-import pkgutil
 import signal
 import sys
 import threading
@@ -41,6 +42,7 @@ from typing import Any
 import numpy as np
 
 EXTRA_CHECKS_ENV = "ROBOCOURSE_EXTRA_CHECKS"
+ENTRY_POINTS = "robocourse.checks"  # the group chapters declare their checks module in
 GRADING_ENV = "ROBOCOURSE_GRADING"  # set to "1" in every grading sandbox
 MAX_LISTED = 8  # problems listed per check; the rest are counted
 MAX_LINE = 400  # characters per feedback line (a student's value can be any size)
@@ -193,17 +195,15 @@ def _validate_name(name):
 def discover(extra_dirs: list[str | os.PathLike] | None = None) -> dict[str, Check]:
     """Import every ``robocourse.<package>.checks`` module and every ``*.py`` in extra_dirs.
 
-    The chapter modules are found by walking the installed package (no chapter is named
-    here). Extra directories come from the argument and from ``ROBOCOURSE_EXTRA_CHECKS``
+    Chapter modules are the ``robocourse.checks`` entry points each chapter declares in
+    pyproject.toml (the plugin pattern of pytest's ``pytest11``): grading names no chapter and
+    imports none by pattern, so no import cycle runs through it. Extra directories come from the argument and from ``ROBOCOURSE_EXTRA_CHECKS``
     (os.pathsep-separated): that is how an instructor adds hidden checks.
     """
     global _DISCOVERED
     if not _DISCOVERED:
-        import robocourse
-
-        for info in pkgutil.iter_modules(robocourse.__path__):
-            if info.ispkg and importlib.util.find_spec(f"robocourse.{info.name}.checks") is not None:
-                importlib.import_module(f"robocourse.{info.name}.checks")
+        for entry in importlib.metadata.entry_points(group=ENTRY_POINTS):
+            entry.load()
         _DISCOVERED = True
     dirs = list(extra_dirs or [])
     dirs += [d for d in os.environ.get(EXTRA_CHECKS_ENV, "").split(os.pathsep) if d]
