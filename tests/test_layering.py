@@ -16,11 +16,7 @@ CHAPTERS = ("pendulum", "mycar", "control", "ethercat", "drivers", "rl", "bridge
 ROOT = Path(robocourse.__file__).parent
 
 #: (importing package, imported module) edges tolerated for now, each with its issue.
-KNOWN_EXCEPTIONS = {
-    # issue 15: grading discovers every '<pkg>.checks' module (rt.checks among them) while
-    # rt.checks imports grading; the grading engineer removes this cycle, then this entry.
-    ("grading", "rt.checks"),
-}
+KNOWN_EXCEPTIONS: set[tuple[str, str]] = set()  # none: grading finds checks via entry points
 
 
 def imported_modules(path: Path) -> set[str]:
