@@ -1,7 +1,8 @@
 """Augmented Random Search (Mania, Guy and Recht 2018, "V2-t"): a linear policy, numpy only.
 
 Each iteration draws ``n_directions`` perturbations delta, runs the policy (M +- noise delta)
-once each with the same episode seed (common random numbers), keeps the ``top`` directions by
+once each on the same episode (common random numbers: one episode seed per iteration, so
+the ranking compares directions, not targets; ``shared_episode=False`` draws one per direction), keeps the ``top`` directions by
 max(r+, r-), and steps ``M += step / (top * sigma_R) * sum (r+ - r-) delta``. Observations are
 normalised with the running mean and std of every state visited (V2), frozen into the policy
 at the end. Seeded: the same seed gives the same weights, bit for bit, on the same machine.
@@ -29,12 +30,15 @@ class ARSConfig:
     max_iterations: int = 200
     eval_every: int = 5
     seed: int = 0
+    shared_episode: bool = False  # True: every direction of an iteration sees the same episodes
+    episodes: int = 1             # episodes averaged per perturbed rollout
 
     def __post_init__(self):
         if not 1 <= self.top <= self.n_directions:
             raise ValueError(f"top={self.top} must be in [1, n_directions={self.n_directions}]")
-        if not (self.step_size > 0 and self.noise > 0 and self.max_iterations >= 1 and self.eval_every >= 1):
-            raise ValueError("step_size and noise must be > 0, max_iterations and eval_every >= 1")
+        if not (self.step_size > 0 and self.noise > 0 and self.max_iterations >= 1 and self.eval_every >= 1
+                and self.episodes >= 1):
+            raise ValueError("step_size and noise must be > 0, max_iterations, eval_every and episodes >= 1")
 
 
 @dataclass
@@ -103,12 +107,18 @@ def train(env, score, threshold: float, config: ARSConfig | None = None, progres
         for it in range(1, cfg.max_iterations + 1):
             mean, std = norm.mean.copy(), norm.std
             deltas = rng.standard_normal((cfg.n_directions, n_act, n_obs))
-            seeds = rng.integers(0, 2**31 - 1, cfg.n_directions)
+            if cfg.shared_episode:
+                seeds = np.tile(rng.integers(0, 2**31 - 1, cfg.episodes), (cfg.n_directions, 1))
+            else:
+                seeds = rng.integers(0, 2**31 - 1, (cfg.n_directions, cfg.episodes))
             r_pos, r_neg, visited = np.zeros(cfg.n_directions), np.zeros(cfg.n_directions), []
             for k in range(cfg.n_directions):
-                r_pos[k], n1, _ = rollout(env, w + cfg.noise * deltas[k], norm, mean, std, int(seeds[k]), record=visited)
-                r_neg[k], n2, _ = rollout(env, w - cfg.noise * deltas[k], norm, mean, std, int(seeds[k]), record=visited)
-                steps += n1 + n2
+                for s in seeds[k]:
+                    r1, n1, _ = rollout(env, w + cfg.noise * deltas[k], norm, mean, std, int(s), record=visited)
+                    r2, n2, _ = rollout(env, w - cfg.noise * deltas[k], norm, mean, std, int(s), record=visited)
+                    r_pos[k] += r1 / cfg.episodes
+                    r_neg[k] += r2 / cfg.episodes
+                    steps += n1 + n2
             norm.update(np.array(visited))
             order = np.argsort(-np.maximum(r_pos, r_neg))[:cfg.top]
             sigma = np.concatenate([r_pos[order], r_neg[order]]).std()
@@ -147,6 +157,9 @@ def train_cartpole(config: ARSConfig | None = None, progress: bool = True, **env
                  progress, meta={"env": "cartpole", "config": env_kwargs})
 
 
+ARM_ARS = ARSConfig(max_iterations=150, episodes=4, shared_episode=True, step_size=0.03)
+
+
 def train_arm_reach(env_config=None, config: ARSConfig | None = None, progress: bool = True) -> TrainResult:
     """Reach: solved when the mean final TCP distance over 8 fixed targets is below
     ``success_distance`` (score = -distance, threshold = -success_distance)."""
@@ -161,5 +174,5 @@ def train_arm_reach(env_config=None, config: ARSConfig | None = None, progress: 
         _, dist, n = evaluate(env, w, mean, std, seeds, options)
         return -dist, n
 
-    return train(env, score, -env.config.success_distance, config or ARSConfig(),
+    return train(env, score, -env.config.success_distance, config or ARM_ARS,
                  progress, meta={"env": "arm_reach", "config": env.config.as_dict()})

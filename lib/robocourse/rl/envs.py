@@ -50,7 +50,7 @@ class CartPoleEnv(gym.Env):
         self.data = mujoco.MjData(self.model)
         self.force_scale, self.max_steps, self.frame_skip = float(force_scale), int(max_steps), int(frame_skip)
         self.dt = self.frame_skip * self.model.opt.timestep
-        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (4,), np.float64)
+        self.observation_space = gym.spaces.Box(-100.0, 100.0, (4,), np.float64)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float64)
         self._steps = 0
 
@@ -89,9 +89,9 @@ class ArmReachConfig:
     dof_vel_scale: float = 0.05
     obs_noise: float = 0.0           # uniform +- on the joint position (rad) and scaled velocity terms
     actuator_delay: int = 0          # physics steps between a new target and the servo using it
-    episode_s: float = 2.0
+    episode_s: float = 1.0
     target_range: float = 0.15       # m, targets uniform in a cube of +- this around the default TCP
-    success_distance: float = 0.03   # m, the threshold: mean final TCP distance over evaluation targets
+    success_distance: float = 0.05   # m, the threshold: mean final TCP distance over evaluation targets
 
     def __post_init__(self):
         if not (isinstance(self.decimation, int) and self.decimation >= 1):
@@ -132,7 +132,7 @@ class ArmReachEnv(gym.Env):
         self.tcp_default = self.sim.link_pose("tool0")[0]
         self._tool = self.sim.model.body("tool0").id
         self.max_steps = int(round(c.episode_s / c.policy_dt))
-        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (self.OBS_SIZE,), np.float64)
+        self.observation_space = gym.spaces.Box(-100.0, 100.0, (self.OBS_SIZE,), np.float64)
         self.action_space = gym.spaces.Box(-c.clip_actions, c.clip_actions, (self.ACT_SIZE,), np.float64)
         self.target = self.tcp_default.copy()
         self.last_action = np.zeros(6)
