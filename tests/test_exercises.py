@@ -72,3 +72,24 @@ def test_check_reports_edits_missing_and_stray_files(tmp_path, root):
     assert any("missing" in str(p) for p in exercises.check(tmp_path))
     exercises.build(tmp_path)
     assert exercises.check(tmp_path) == [] and not (tmp_path / "exercises" / "stray.ipynb").exists()
+
+
+def test_every_check_cell_passes_the_globals_its_check_probes(root):
+    """The bulk grader probes the globals named by ``uses``: the notebook's check call must pass the same."""
+    import ast
+
+    from robocourse.grading import checks
+
+    registry = checks.discover()
+    seen = 0
+    for sol in sorted((root / "solutions").glob("*.ipynb")):
+        for cell in nbformat.read(sol, as_version=4).cells:
+            if cell.cell_type != "code" or "check(" not in cell.source:
+                continue
+            for node in ast.walk(ast.parse(cell.source)):
+                if isinstance(node, ast.Call) and getattr(node.func, "id", "") == "check":
+                    name = node.args[0].value
+                    passed = tuple(a.id for a in node.args[1:])
+                    assert passed == registry[name].uses, f"{sol.name}: check({name!r}, ...) passes {passed}"
+                    seen += 1
+    assert seen == 14

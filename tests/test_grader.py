@@ -1,4 +1,4 @@
-"""Bulk grading: every kind of bad submission yields zero with a reason, and grading goes on.
+"""Bulk grading: every kind of broken submission is graded for what it earned, with a reason.
 
 Fixture notebooks are built from the real chapter 0 solution notebook, so they stay in step
 with its checks: each one breaks it in one way a real student submission can.
@@ -7,13 +7,13 @@ with its checks: each one breaks it in one way a real student submission can.
 from __future__ import annotations
 
 import csv
-import json
 import subprocess
 import sys
 
 import nbformat
 import pytest
 
+from robocourse.grading import checks as checks_mod
 from robocourse.grading.grader import grade
 
 SOLUTION = "solutions/00_setup_exercises.ipynb"
@@ -132,21 +132,23 @@ def test_kernel_death_keeps_points_earned_before_it(graded):
     grades, *_ = graded
     g = grades["kernel_dies"]
     assert _points(g) == {"ch00.to_ns": 2.0, "ch00.budget": 0.0, "ch00.limits_conf": 0.0}
-    assert "kernel died" in g.results["ch00.budget"]["message"]
+    assert "process died" in g.results["ch00.budget"]["message"]
 
 
-def test_deleted_check_cell_gets_zero_with_reason(graded):
+def test_deleted_check_cell_is_graded_anyway(graded):
+    """nbgrader restores the instructor's test cells: deleting a check cell changes nothing."""
     grades, *_ = graded
     g = grades["deleted"]
-    assert _points(g) == {"ch00.to_ns": 2.0, "ch00.budget": 1.0, "ch00.limits_conf": 0.0}
-    assert "deleted or never reached" in g.results["ch00.limits_conf"]["message"]
+    assert _points(g) == {"ch00.to_ns": 2.0, "ch00.budget": 1.0, "ch00.limits_conf": 2.0}
+    assert g.results["ch00.limits_conf"]["cell"] is None
 
 
-def test_huge_output_is_truncated_not_fatal(graded):
+def test_huge_output_is_counted_not_kept(graded):
     grades, *_ = graded
     g = grades["huge_output"]
     assert g.points == 5.0
-    assert "truncated" in g.status
+    [note] = [n for n in g.notes if n.startswith("printed ")]
+    assert int(note.split()[1]) > 2_000_000 and "(not kept)" in note  # counted past the 2 MB output limit
 
 
 def test_memory_hog_hits_the_limit_and_grading_goes_on(graded):
@@ -174,13 +176,16 @@ def test_csv_has_one_row_per_student_with_per_check_points(graded):
     grades, fixtures, out, feedback = graded
     rows = list(csv.DictReader(out.open()))
     assert sorted(r["student"] for r in rows) == sorted(fixtures)
-    assert list(rows[0].keys()) == ["student", "assignment", "submission", *CHECKS, "total", "max", "status"]
+    assert list(rows[0].keys()) == ["student", "assignment", "submission", *CHECKS, "total", "max", "late_days",
+                                    "sandboxed", "status"]
     by = {r["student"]: r for r in rows}
     assert by["good"]["total"] == "5" and by["good"]["max"] == "5"
     assert by["badjson"]["total"] == "0"
     files = sorted(p.name for p in feedback.iterdir())
-    assert len(files) == len(fixtures)
+    assert len(files) == 2 * len(fixtures)  # text and HTML
     assert "Score: 5/5" in (feedback / "good__00_setup_exercises.txt").read_text()
+    html = (feedback / "raises__00_setup_exercises.html").read_text()
+    assert "ch00.budget" in html and "check cell 7" in html and "RuntimeError: oops" in html
 
 
 def test_cli_grades_three_copies_in_parallel(tmp_path, root):
@@ -198,15 +203,24 @@ def test_cli_grades_three_copies_in_parallel(tmp_path, root):
     assert all(r["ch00.to_ns"] == "2" and r["ch00.budget"] == "1" and r["ch00.limits_conf"] == "2" for r in rows)
 
 
+HIDDEN = """
+from robocourse.grading import CheckFailed, register
+from robocourse.grading.probes import calls
+
+
+@register('ch00.hidden_budget', weight=3, uses=('latency_budget_ns',), probe=calls,
+          inputs=lambda rng: [[0, [2_000_000], {}]])
+def hidden(inputs, outputs):
+    if outputs[0].get('value') != 100_000:
+        raise CheckFailed('5 % of 2 ms is 100 us')
+    return 'hidden budget right'
+"""
+
+
 def test_instructor_checks_from_a_directory(tmp_path, root):
     extra = tmp_path / "mychecks"
     extra.mkdir()
-    (extra / "extra_ch00.py").write_text(
-        "from robocourse.grading import register, CheckFailed\n"
-        "@register('ch00.hidden_budget', weight=3, uses=('latency_budget_ns',))\n"
-        "def hidden(latency_budget_ns):\n"
-        "    if latency_budget_ns(2_000_000) != 100_000:\n"
-        "        raise CheckFailed('5 % of 2 ms is 100 us')\n")
+    (extra / "extra_ch00.py").write_text(HIDDEN)
     sub = tmp_path / "subs"
     sub.mkdir()
     (sub / "00_setup_exercises_dan.ipynb").write_text((root / SOLUTION).read_text())
@@ -220,6 +234,41 @@ def test_instructor_checks_from_a_directory(tmp_path, root):
     # a later grading run without --checks does not expect the instructor's check any more
     [g] = grade([str(sub / "00_setup_exercises_dan.ipynb")], solutions_dir=root / "solutions", time_limit=60)
     assert list(g.results) == CHECKS and g.points == 5.0
+
+
+def test_a_hidden_check_that_raises_is_the_instructors_problem(tmp_path, root):
+    extra = tmp_path / "buggy"
+    extra.mkdir()
+    (extra / "buggy_ch00.py").write_text(HIDDEN.replace("hidden_budget", "buggy").replace(
+        "    if outputs[0]", "    1 / 0\n    if outputs[0]"))
+    sub = tmp_path / "subs"
+    sub.mkdir()
+    (sub / "00_setup_exercises_fay.ipynb").write_text((root / SOLUTION).read_text())
+    grades = grade([str(sub)], solutions_dir=root / "solutions", extra_dirs=[str(extra)], time_limit=60,
+                   out=tmp_path / "g.csv")
+    [g] = grades
+    assert g.results["ch00.buggy"]["reason"] == "check_error" and g.points == 5.0
+    assert "your instructor has been told" in g.results["ch00.buggy"]["message"]
+    assert "ZeroDivisionError" not in g.feedback()
+    assert "CHECK ERRORS" in grades.summary and "ZeroDivisionError" in grades.summary
+    assert "CHECK ERROR (instructor)" in (tmp_path / "g.csv").read_text()
+
+
+def test_checks_folder_problems_are_one_clear_line(tmp_path, root):
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "bad.py").write_text("def judge(:\n")
+    proc = subprocess.run([sys.executable, "-m", "robocourse.cli", "grade", str(root / SOLUTION), "--solutions",
+                           str(root / "solutions"), "--checks", str(broken), "--out", str(tmp_path / "g.csv")],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode != 0
+    assert proc.stderr.strip().count("\n") == 0 and "bad.py:1: SyntaxError" in proc.stderr
+    orphan = tmp_path / "orphan"
+    orphan.mkdir()
+    (orphan / "ch09.py").write_text(HIDDEN.replace("ch00.hidden_budget", "ch09.hidden"))
+    with pytest.raises(ValueError, match="ch09.hidden match.*no assignment"):
+        grade([str(root / SOLUTION)], solutions_dir=root / "solutions", extra_dirs=[str(orphan)])
+    checks_mod._REGISTRY.pop("ch09.hidden", None)
 
 
 def test_unknown_assignment_is_reported_not_crashed(tmp_path, root):
@@ -237,16 +286,9 @@ def test_bad_arguments_are_clear(tmp_path, root):
         grade([], solutions_dir=root / "solutions", jobs=0)
     with pytest.raises(ValueError, match="not one of"):
         grade([], solutions_dir=root / "solutions", assignment="99_nothing")
-
-
-def test_results_file_lines_are_json(tmp_path, root, monkeypatch):
-    """The channel between kernel and grader: one JSON object per check, appended at once."""
-    from robocourse.grading import checks
-
-    results = tmp_path / "r.jsonl"
-    monkeypatch.setenv(checks.RESULTS_ENV, str(results))
-    checks.reset()
-    checks.check("ch00.budget", lambda p, fraction=0.05: round(p * fraction) if p > 0 else (_ for _ in ()).throw(ValueError()), quiet=True)
-    [line] = results.read_text().splitlines()
-    assert json.loads(line)["name"] == "ch00.budget" and json.loads(line)["points"] == 1.0
-    checks.reset()
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "empty" / "readme.txt").write_text("x")
+    with pytest.raises(FileNotFoundError, match="no notebooks.*1 other file"):
+        grade([str(tmp_path / "empty")], solutions_dir=root / "solutions")
+    with pytest.raises(ValueError, match="memory limit must be >= 256 MB"):
+        grade([], solutions_dir=root / "solutions", memory_mb=10)

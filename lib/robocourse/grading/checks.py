@@ -1,15 +1,23 @@
-"""Checks: named, weighted, time-limited tests of a student's objects.
+"""Checks: a probe that gathers the student's outputs, a judge that decides, a weight.
 
-Like otter-grader's ``grader.check("q1")`` and nbgrader's weighted test cells: in a notebook,
-``check("ch00.to_ns", to_ns)`` runs the check at once and prints feedback; ``score()`` prints
-"Score: X/Y" with a line per check. Under ``robocourse grade`` every result is also appended
-to the file named by ``ROBOCOURSE_GRADING_RESULTS`` the moment it is known, so a notebook that
-crashes later keeps the points it already earned.
+Like otter-grader's ``grader.check("q1")`` and nbgrader's weighted test cells, with one rule
+they do not have: the verdict is never computed by the student's process. A check is three
+small functions:
 
-A check function takes the student's objects and either returns (optionally a message) to
-pass, or raises ``CheckFailed``/``AssertionError`` with a message a student understands.
-Chapters register their checks in ``robocourse/<chapter>/checks.py``; this module imports
-every such module on first use, so it never names a chapter itself.
+- ``inputs(rng) -> data``: fresh (randomised where the task allows) plain inputs, made by
+  the grader;
+- ``probe(inputs, *objects) -> data``: runs in the student's process (inside the sandbox under
+  ``robocourse grade``), calls the student's objects on the inputs and returns only what they
+  produced, as plain data (numbers, strings, lists, dicts);
+- ``judge(inputs, outputs) -> message``: runs in the grader's process, computes the reference
+  the same way and either returns a message (pass) or raises ``CheckFailed`` with every
+  problem it found.
+
+In a notebook, ``check("ch00.to_ns", to_ns)`` runs all three in the student's kernel at once
+for instant feedback; ``score("ch00")`` prints "Score: X/Y". The bulk grader ignores whatever
+the notebook computed: it sends the inputs into the sandbox, reads back the probe's data and
+judges it itself. Chapters register their checks in ``robocourse/<chapter>/checks.py``;
+``discover`` imports every such module it finds, so this package never names a chapter.
 """
 
 from __future__ import annotations
@@ -17,10 +25,11 @@ from __future__ import annotations
 import contextlib
 import importlib
 import importlib.util
-import json
+import inspect
 import os
 import pkgutil
 import signal
+import sys
 import threading
 import time
 import traceback
@@ -29,16 +38,56 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-RESULTS_ENV = "ROBOCOURSE_GRADING_RESULTS"
+import numpy as np
+
 EXTRA_CHECKS_ENV = "ROBOCOURSE_EXTRA_CHECKS"
+GRADING_ENV = "ROBOCOURSE_GRADING"  # set to "1" in every grading sandbox
+MAX_LISTED = 8  # problems listed per check; the rest are counted
+MAX_LINE = 400  # characters per feedback line (a student's value can be any size)
 
 
 class CheckFailed(AssertionError):
-    """Raise from a check function to fail it with a student-facing message."""
+    """Raise from a judge to fail the check; pass several messages to list every problem."""
+
+    def __init__(self, *messages: str):
+        self.messages = [str(m) for m in messages if str(m)]
+        super().__init__("\n".join(self.messages))
 
 
 class CheckTimeout(Exception):
-    """A check ran longer than its time limit."""
+    """A probe ran longer than its time limit."""
+
+
+class CheckDirError(ValueError):
+    """An instructor's check folder cannot be loaded (one line: file, line, what is wrong)."""
+
+
+class Failures:
+    """Collect every problem a judge finds, then raise them together (students see them all).
+
+    >>> f = Failures(); f.expect(1 + 1 == 2, "arithmetic"); f.done("fine")
+    'fine'
+    """
+
+    def __init__(self):
+        self.messages: list[str] = []
+
+    def add(self, message: str) -> None:
+        if message not in self.messages:
+            self.messages.append(message)
+
+    def expect(self, ok: bool, message: str) -> bool:
+        if not ok:
+            self.add(message)
+        return bool(ok)
+
+    def done(self, success_message: str) -> str:
+        if self.messages:
+            shown = self.messages[:MAX_LISTED]
+            if len(self.messages) > MAX_LISTED:
+                shown.append(f"... and {len(self.messages) - MAX_LISTED} more problem(s) like these")
+            raise CheckFailed(*shown)
+        return success_message
 
 
 @dataclass(frozen=True)
@@ -46,13 +95,21 @@ class Check:
     """One graded check (otter: a test case file; nbgrader: an autograder cell)."""
 
     name: str
-    func: Callable[..., Any]
+    judge: Callable[[Any, Any], Any]
+    probe: Callable[..., Any]
+    uses: tuple[str, ...]
+    inputs: Callable[[np.random.Generator], Any] | None = None
     weight: float = 1.0
     time_limit: float = 10.0
     description: str = ""
-    #: Names of notebook globals the grader passes when the notebook never called the check
-    #: itself (instructor-added checks). Empty: the check must be called in the notebook.
-    uses: tuple[str, ...] = ()
+    #: "module:qualname" of the library implementations this exercise asks the student to write
+    #: themselves; calling one from the probed code earns nothing for this check.
+    references: tuple[str, ...] = ()
+    #: False for an instructor's hidden check (graded even when the notebook never calls it).
+    in_notebook: bool = True
+
+    def make_inputs(self, rng: np.random.Generator | None = None):
+        return self.inputs(rng if rng is not None else np.random.default_rng()) if self.inputs else None
 
 
 @dataclass
@@ -63,17 +120,27 @@ class Result:
     weight: float
     message: str
     seconds: float = 0.0
+    #: "", "not_implemented", "timeout", "raised", "delegated", "missing", "check_error", "no_output"
+    reason: str = ""
     extra: dict = field(default_factory=dict)
 
     def line(self) -> str:
         mark = "PASS" if self.passed else "FAIL"
-        return f"[{mark}] {self.name} ({self.points:g}/{self.weight:g}): {self.message}"
+        head = f"[{mark}] {self.name} ({self.points:g}/{self.weight:g})"
+        lines = self.message.splitlines() or [""]
+        if len(lines) == 1:
+            return f"{head}: {lines[0]}"
+        return "\n".join([f"{head}: {len(lines)} problems"] + [f"    - {m}" for m in lines])
 
-    def to_json(self) -> str:
-        return json.dumps(
-            {"name": self.name, "passed": self.passed, "points": self.points,
-             "weight": self.weight, "message": self.message, "seconds": round(self.seconds, 4)}
-        )
+    def __str__(self) -> str:
+        return self.line()
+
+    def _ipython_display_(self):
+        """check() has already printed this result; a check cell shows nothing more (no raw repr)."""
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "passed": self.passed, "points": self.points, "weight": self.weight,
+                "message": self.message, "seconds": round(self.seconds, 4), "reason": self.reason}
 
 
 _REGISTRY: dict[str, Check] = {}
@@ -81,19 +148,37 @@ _RESULTS: dict[str, Result] = {}
 _DISCOVERED = False
 
 
-def register(name: str, *, weight: float = 1.0, time_limit: float = 10.0, uses: tuple[str, ...] = ()):
-    """Decorator: register ``func`` as check ``name`` ("chNN.short_name")."""
+def register(name: str, *, uses: tuple[str, ...] | str, probe: Callable[..., Any],
+             inputs: Callable[[np.random.Generator], Any] | None = None, weight: float = 1.0,
+             time_limit: float = 10.0, references: tuple[str, ...] = (), in_notebook: bool | None = None):
+    """Decorator on the judge: register check ``name`` ("chNN.short_name").
+
+    ``uses``: the notebook globals the probe receives, in order (the names the exercise asks
+    for). ``in_notebook``: default True for library checks, False for checks loaded from an
+    instructor's folder (hidden checks the notebook never calls).
+    """
     _validate_name(name)
+    uses = (uses,) if isinstance(uses, str) else tuple(uses)
+    if not uses or not all(isinstance(u, str) and u.isidentifier() for u in uses):
+        raise ValueError(f"check {name!r}: uses must name the notebook globals the probe receives, "
+                         f"e.g. uses=('to_ns',); got {uses!r}")
+    if not callable(probe):
+        raise ValueError(f"check {name!r}: probe must be a function probe(inputs, *objects) -> plain data; "
+                         f"got {probe!r}. Use robocourse.grading.probes.calls for plain function calls")
+    if inputs is not None and not callable(inputs):
+        raise ValueError(f"check {name!r}: inputs must be a function inputs(rng) -> plain data or None")
     if not (isinstance(weight, (int, float)) and weight > 0):
         raise ValueError(f"check {name!r}: weight must be a positive number, got {weight!r}")
     if not (isinstance(time_limit, (int, float)) and time_limit > 0):
         raise ValueError(f"check {name!r}: time_limit must be positive seconds, got {time_limit!r}")
 
-    def decorate(func):
-        _REGISTRY[name] = Check(name, func, float(weight), float(time_limit),
-                                (func.__doc__ or "").strip().splitlines()[0] if func.__doc__ else "",
-                                tuple(uses))
-        return func
+    def decorate(judge):
+        module = getattr(judge, "__module__", "") or ""
+        shown = (judge.__doc__ or "").strip().splitlines()
+        _REGISTRY[name] = Check(name, judge, probe, uses, inputs, float(weight), float(time_limit),
+                                shown[0] if shown else "", tuple(references),
+                                module.startswith("robocourse.") if in_notebook is None else bool(in_notebook))
+        return judge
 
     return decorate
 
@@ -108,8 +193,9 @@ def _validate_name(name):
 def discover(extra_dirs: list[str | os.PathLike] | None = None) -> dict[str, Check]:
     """Import every ``robocourse.<package>.checks`` module and every ``*.py`` in extra_dirs.
 
-    Extra directories come from the argument and from ``ROBOCOURSE_EXTRA_CHECKS``
-    (os.pathsep-separated): that is how an instructor adds checks of their own.
+    The chapter modules are found by walking the installed package (no chapter is named
+    here). Extra directories come from the argument and from ``ROBOCOURSE_EXTRA_CHECKS``
+    (os.pathsep-separated): that is how an instructor adds hidden checks.
     """
     global _DISCOVERED
     if not _DISCOVERED:
@@ -132,12 +218,13 @@ _DIR_CHECKS: dict[Path, list[str]] = {}
 def load_check_dir(directory) -> list[str]:
     """Import every ``*.py`` file of an instructor's check directory; return its check names.
 
-    Each directory is imported once per process; later calls return the same names.
+    A file that does not import (syntax error, missing name) raises ``CheckDirError`` with one
+    line naming the file, the line and the problem. Each directory is imported once per process.
     """
     path = Path(directory)
     if not path.is_dir():
-        raise FileNotFoundError(
-            f"extra checks directory {str(path)!r} does not exist; pass a folder of .py files "
+        raise CheckDirError(
+            f"checks directory {str(path)!r} does not exist; pass a folder of .py files "
             "that use @robocourse.grading.register(...)"
         )
     path = path.resolve()
@@ -146,15 +233,18 @@ def load_check_dir(directory) -> list[str]:
         for file in sorted(path.glob("*.py")):
             spec = importlib.util.spec_from_file_location(f"robocourse_extra_checks.{file.stem}", file)
             module = importlib.util.module_from_spec(spec)
-            spec.loader.exec_module(module)
+            try:
+                spec.loader.exec_module(module)
+            except SyntaxError as exc:
+                raise CheckDirError(f"{file}:{exc.lineno}: SyntaxError: {exc.msg}; fix the check file "
+                                    "(python -m py_compile FILE shows the same)") from None
+            except Exception as exc:
+                tb = [f for f in traceback.extract_tb(exc.__traceback__) if f.filename == str(file)]
+                line = tb[-1].lineno if tb else "?"
+                raise CheckDirError(f"{file}:{line}: {type(exc).__name__}: {exc}; the check file must "
+                                    "import cleanly") from None
         _DIR_CHECKS[path] = sorted(set(_REGISTRY) - before)
     return list(_DIR_CHECKS[path])
-
-
-def is_library_check(name: str) -> bool:
-    """True for checks shipped in ``robocourse.<chapter>.checks`` (not an instructor's folder)."""
-    chk = _REGISTRY.get(name)
-    return chk is not None and getattr(chk.func, "__module__", "").startswith("robocourse.")
 
 
 def get(name: str) -> Check:
@@ -168,12 +258,14 @@ def get(name: str) -> Check:
         raise KeyError(f"no check named {name!r}.{hint} Did you update robocourse (make setup)?") from None
 
 
+# -- the probe side (runs where the student's code runs) --------------------------------------
+
 @contextlib.contextmanager
 def _time_limit(seconds: float):
     """Raise CheckTimeout in the main thread after ``seconds`` (SIGALRM); elsewhere no limit.
 
-    Notebook cells run in the kernel's main thread, so this stops a student's infinite loop in
-    Python code. The bulk grader still kills the whole kernel after its own time limit.
+    Stops a student's endless Python loop in a probe. The bulk grader additionally kills the
+    whole sandbox after its own wall-time limit, whatever the code does.
     """
     usable = (hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread())
     if not usable:
@@ -184,73 +276,174 @@ def _time_limit(seconds: float):
         raise CheckTimeout(f"took longer than its {seconds:g} s time limit")
 
     previous = signal.signal(signal.SIGALRM, on_alarm)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
+    old = signal.setitimer(signal.ITIMER_REAL, seconds)
     try:
         yield
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.setitimer(signal.ITIMER_REAL, *old)
         signal.signal(signal.SIGALRM, previous)
 
 
-def run_check(chk: Check, *objects) -> Result:
-    """Run one check on the student's objects and turn every outcome into a Result."""
+def resolve(ref: str):
+    """'package.module:Qual.name' -> the object (a reference implementation or a probe)."""
+    module, _, qual = ref.partition(":")
+    obj = importlib.import_module(module)
+    for part in qual.split("."):
+        obj = getattr(obj, part)
+    return obj
+
+
+def _reference_codes(references) -> dict:
+    """code object -> "module:qualname" for every reference function (and a class's methods)."""
+    codes = {}
+    for ref in references:
+        try:
+            obj = resolve(ref)
+        except (ImportError, AttributeError):
+            continue
+        members = [obj]
+        if inspect.isclass(obj):
+            members = [v for v in vars(obj).values() if inspect.isfunction(v)]
+        for m in members:
+            code = getattr(inspect.unwrap(m), "__code__", None)
+            if code is not None:
+                codes[code] = ref
+    return codes
+
+
+def run_probe(chk: Check, inputs, objects) -> dict:
+    """Run ``chk``'s probe on the student's objects; return plain data, never a verdict.
+
+    ``{"outputs": ..., "error": "..."|None, "reason": ..., "delegated": [...], "seconds": s}``.
+    While the student's code runs, a profile hook notes every call into a reference
+    implementation listed in ``chk.references`` (delegation earns nothing).
+    """
+    from .probes import plain
+
+    codes = _reference_codes(chk.references)
+    delegated: set[str] = set()
+    for ref in set(codes.values()):
+        ref_obj = resolve(ref)
+        for obj in objects:
+            target = getattr(obj, "func", obj)  # a functools.partial of the reference
+            if target is ref_obj or (inspect.isclass(target) and inspect.isclass(ref_obj)
+                                     and issubclass(target, ref_obj)):
+                delegated.add(ref)
+
+    def hook(frame, event, arg):
+        if event == "call" and frame.f_code in codes:
+            delegated.add(codes[frame.f_code])
+
+    out = {"outputs": None, "error": None, "reason": "", "delegated": [], "seconds": 0.0}
     start = time.perf_counter()
+    previous = sys.getprofile()
     try:
         with _time_limit(chk.time_limit):
-            message = chk.func(*objects)
-        passed, text = True, (message if isinstance(message, str) and message else "passed")
+            if codes:
+                sys.setprofile(hook)
+            try:
+                raw = chk.probe(inputs, *objects)
+            finally:
+                if codes:
+                    sys.setprofile(previous)
+        out["outputs"] = plain(raw)
     except CheckTimeout as exc:
-        passed, text = False, f"{exc}. Look for an endless loop or a too-slow algorithm."
+        out["error"], out["reason"] = f"{exc}. Look for an endless loop or a too-slow algorithm.", "timeout"
     except NotImplementedError:
-        passed, text = False, "not implemented yet: replace `raise NotImplementedError` with your code."
-    except AssertionError as exc:
-        passed, text = False, str(exc) or "an assertion in the check failed"
+        out["error"], out["reason"] = ("not implemented yet: replace `raise NotImplementedError` with your code.",
+                                       "not_implemented")
     except Exception as exc:  # the student's code raised: say where, briefly
         tb = traceback.extract_tb(exc.__traceback__)
         where = f" (line {tb[-1].lineno} in {tb[-1].name})" if tb else ""
-        passed, text = False, f"your code raised {type(exc).__name__}: {exc}{where}"
-    seconds = time.perf_counter() - start
-    return Result(chk.name, passed, chk.weight if passed else 0.0, chk.weight, text, seconds)
+        out["error"], out["reason"] = f"your code raised {type(exc).__name__}: {str(exc)[:300]}{where}", "raised"
+    out["seconds"] = round(time.perf_counter() - start, 4)
+    out["delegated"] = sorted(delegated)
+    return out
 
 
-def _record(result: Result) -> None:
-    _RESULTS[result.name] = result
-    path = os.environ.get(RESULTS_ENV)
-    if path:
-        with open(path, "a", encoding="utf-8") as fh:
-            fh.write(result.to_json() + "\n")
+# -- the judge side (the grader's own process) -------------------------------------------------
+
+def judge(chk: Check, inputs, probed: dict | None) -> Result:
+    """Turn a probe's data into a Result: decided here, capped at the weight.
+
+    ``probed`` is untrusted data (from the sandbox); a malformed value fails the check with a
+    message, it never crashes the grader. A judge that raises anything but ``CheckFailed``
+    is a bug in the check: the Result says so (reason "check_error") and the student is not
+    blamed.
+    """
+    start = time.perf_counter()
+
+    def result(passed, message, reason=""):
+        message = "\n".join(m if len(m) <= MAX_LINE else m[:MAX_LINE] + " [...]" for m in str(message).splitlines())
+        return Result(chk.name, passed, chk.weight if passed else 0.0, chk.weight, message,
+                      float(probed.get("seconds", 0.0)) if isinstance(probed, dict) and
+                      isinstance(probed.get("seconds"), (int, float)) else time.perf_counter() - start,
+                      reason)
+
+    if not isinstance(probed, dict):
+        return result(False, "no output reached the grader for this check", "no_output")
+    if probed.get("error"):
+        reason = probed.get("reason") if probed.get("reason") in ("timeout", "not_implemented", "raised",
+                                                                   "missing") else "raised"
+        return result(False, str(probed["error"])[:2000], reason)
+    delegated = probed.get("delegated") or []
+    if delegated and isinstance(delegated, list):
+        names = ", ".join(str(d).replace(":", ".") for d in delegated[:3])
+        return result(False, f"this exercise asks you to write it yourself, but your code calls the library's "
+                             f"{names}, the reference the grader compares with: no points for this check", "delegated")
+    try:
+        message = chk.judge(inputs, probed.get("outputs"))
+    except CheckFailed as exc:
+        return result(False, "\n".join(exc.messages) or "the check failed")
+    except AssertionError as exc:
+        return result(False, str(exc) or "an assertion in the check failed")
+    except (TypeError, ValueError, KeyError, IndexError, AttributeError) as exc:
+        if chk.in_notebook:
+            # a library judge meeting data of the wrong shape: the student's output is malformed
+            return result(False, f"your code returned something of an unexpected type or shape "
+                                 f"({type(exc).__name__}: {str(exc)[:200]}); read the exercise's docstring")
+        return _check_error(chk, exc, start)
+    except Exception as exc:
+        return _check_error(chk, exc, start)
+    return result(True, message if isinstance(message, str) and message else "passed")
+
+
+def _check_error(chk: Check, exc: BaseException, start: float) -> Result:
+    tb = traceback.extract_tb(exc.__traceback__)
+    where = f" ({Path(tb[-1].filename).name}:{tb[-1].lineno})" if tb else ""
+    return Result(chk.name, False, 0.0, chk.weight,
+                  "this check could not be graded because the check itself failed; your instructor has been told",
+                  time.perf_counter() - start, "check_error",
+                  {"instructor": f"{chk.name}: the judge raised {type(exc).__name__}: {str(exc)[:300]}{where}"})
+
+
+def run_check(chk: Check, *objects, rng: np.random.Generator | None = None) -> Result:
+    """Probe and judge in this process (the notebook's instant feedback, and tests)."""
+    inputs = chk.make_inputs(rng)
+    return judge(chk, inputs, run_probe(chk, inputs, objects))
 
 
 def check(name: str, *objects, quiet: bool = False) -> Result:
-    """Run check ``name`` on ``objects`` now, print instant feedback, remember the result."""
+    """Run check ``name`` on ``objects`` now, print instant feedback, remember the result.
+
+    Under ``robocourse grade`` this feedback is for the student only: the grader probes the
+    same objects again with its own inputs and judges outside the notebook.
+    """
     chk = get(name)
-    result = run_check(chk, *objects)
-    _record(result)
-    if not quiet:
+    if len(objects) != len(chk.uses):
+        raise TypeError(f"check({name!r}, ...) takes {len(chk.uses)} object(s): {', '.join(chk.uses)}; "
+                        f"got {len(objects)}")
+    if os.environ.get(GRADING_ENV) == "1":
+        # inside ``robocourse grade``'s sandbox: the grader probes these objects itself after this
+        # cell and judges outside; computing the feedback here would only cost time
+        result = Result(name, False, 0.0, chk.weight, "graded by robocourse grade, outside this notebook",
+                        reason="deferred")
+    else:
+        result = run_check(chk, *objects)
+    _RESULTS[name] = result
+    if not quiet and result.reason != "deferred":
         print(result.line())
     return result
-
-
-def run_pending(namespace: dict, names: list[str] | None = None) -> list[Result]:
-    """Run registered checks that declare ``uses`` and have not run yet, on notebook globals.
-
-    The bulk grader appends a cell calling this, so instructor-added checks (which the
-    student's notebook never calls) are graded too. A missing global fails with its name.
-    """
-    discover()
-    out = []
-    for chk in _REGISTRY.values():
-        if not chk.uses or chk.name in _RESULTS or (names is not None and chk.name not in names):
-            continue
-        missing = [n for n in chk.uses if n not in namespace]
-        if missing:
-            result = Result(chk.name, False, 0.0, chk.weight,
-                            f"the notebook defines no {', '.join(missing)}: keep the names the exercise asks for")
-        else:
-            result = run_check(chk, *(namespace[n] for n in chk.uses))
-        _record(result)
-        out.append(result)
-    return out
 
 
 def results() -> dict[str, Result]:
@@ -262,17 +455,24 @@ def reset() -> None:
     _RESULTS.clear()
 
 
-def score(names: str | list[str] | None = None, *, quiet: bool = False) -> tuple[float, float]:
+class Score(tuple):
+    """(points, max points); a score cell shows the printed table only, not this tuple."""
+
+    def _ipython_display_(self):
+        """score() has already printed the table."""
+
+
+def score(names: str | list[str] | None = None, *, quiet: bool = False) -> Score:
     """Print "Score: X/Y" and a line per check; return (points, max points).
 
-    ``names``: a chapter prefix (``score("ch01")``: every registered check named ``ch01.*``),
-    or a list of check names; checks never run count as 0. Default: the checks run so far.
+    ``names``: a chapter prefix (``score("ch01")``: every check of the notebook named
+    ``ch01.*``), or a list of check names; checks never run count as 0. Default: the checks
+    run so far. The score is for the student; the bulk grader computes its own.
     """
     discover()
     if isinstance(names, str):
         prefix = names.rstrip(".") + "."
-        names = sorted(n for n, c in _REGISTRY.items() if n.startswith(prefix) and not c.uses) + sorted(
-            n for n in _RESULTS if n.startswith(prefix) and _REGISTRY.get(n) and _REGISTRY[n].uses)
+        names = [n for n, c in _REGISTRY.items() if n.startswith(prefix) and c.in_notebook]
         if not names:
             raise KeyError(f"no checks registered under {prefix!r}; is the chapter prefix right?")
     names = list(names) if names is not None else list(_RESULTS)
@@ -283,13 +483,12 @@ def score(names: str | list[str] | None = None, *, quiet: bool = False) -> tuple
             r = _RESULTS[name]
         else:
             chk = _REGISTRY.get(name)
-            weight = chk.weight if chk else 1.0
-            r = Result(name, False, 0.0, weight, "not run yet: execute its check cell")
+            r = Result(name, False, 0.0, chk.weight if chk else 1.0, "not run yet: execute its check cell")
         points += r.points
         total += r.weight
         lines.append(r.line())
     if not quiet:
         print(f"Score: {points:g}/{total:g}")
         for line in lines:
-            print("  " + line)
-    return points, total
+            print("  " + line.replace("\n", "\n  "))
+    return Score((points, total))

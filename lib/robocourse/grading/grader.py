@@ -1,36 +1,55 @@
 """Bulk grading: ``robocourse grade SUBMISSIONS... [-j N] [--out grades.csv] [--feedback DIR]``.
 
-Counterpart of ``otter grade`` / nbgrader autograde. Each submission runs in its own process
-(``runner.py``) under a wall-clock limit and a memory limit; the checks it must pass come from
-the instructor's notebook in solutions/ (never from the submission), plus any instructor-added
-checks with the same chapter prefix. Whatever a submission does (loops forever, raises, calls
-sys.exit, deletes its check cells, prints gigabytes, is not JSON, wants another kernel), it
-gets zero for the affected checks with a reason, and grading goes on.
+Counterpart of ``otter grade`` / nbgrader autograde. For each submission the grader
+
+1. decides who and what it is (``identify``: the folder name wins over the file name);
+2. copies it alone into a private folder and runs it in a sandbox (``sandbox.py``) that sends
+   each check's inputs in and gathers the probes' plain data out (``runner.py``);
+3. judges that data here, in its own process, against the reference (``checks.judge``):
+   nothing the submission writes is a verdict, points never exceed a check's weight, and a
+   name the grader did not ask for is ignored;
+4. appends the row to an append-only journal (``<out>.journal.jsonl``) at once, so a crash or
+   kill of the grader loses nothing and a re-run resumes where it stopped.
+
+The CSV is built from the journal at the end and never replaces an existing CSV that has
+more rows unless ``force=True``. Which checks an assignment has comes from the instructor's
+notebook in solutions/ (never from the submission), plus hidden checks from ``--checks``
+folders with the same chapter prefix.
 """
 
 from __future__ import annotations
 
 import concurrent.futures
 import csv
+import datetime as dt
+import hashlib
+import inspect
 import json
 import os
-import resource
+import re
+import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import nbformat
+import numpy as np
 
 from . import checks as checks_mod
-from .exercises import checks_in
+from . import runner, sandbox
+from .exercises import CHECK_CALL, checks_in
+
+MAX_NOTEBOOK_BYTES = 50 * 1024 * 1024
+MAX_PROBE_BYTES = 64 * 1024 * 1024
 
 
 @dataclass
 class Assignment:
-    name: str  # solution notebook stem, e.g. "00_setup_exercise"
+    name: str  # solution notebook stem, e.g. "00_setup_exercises"
     solution: Path
     checks: list[str]
 
@@ -40,243 +59,436 @@ class Grade:
     student: str
     submission: Path
     assignment: str
-    results: dict = field(default_factory=dict)  # name -> {"points", "weight", "passed", "message"}
+    results: dict = field(default_factory=dict)  # name -> {"points", "weight", "passed", "message", "reason", "cell"}
     status: str = ""
     seconds: float = 0.0
     errors: list = field(default_factory=list)  # "cell N: Type: message" from the run
+    sandbox: str = ""  # "bwrap", "process" (NOT sandboxed) or "" (never ran)
+    notes: list = field(default_factory=list)  # identity and duplicate notes for the instructor
+    instructor: list = field(default_factory=list)  # hidden-check errors: the instructor's problem
+    late_days: int = 0
+    penalty: float = 0.0  # fraction of the points removed for lateness
+    resumed: bool = False
+
+    @property
+    def raw_points(self) -> float:
+        return sum(min(r["points"], r["weight"]) for r in self.results.values())
 
     @property
     def points(self) -> float:
-        return sum(r["points"] for r in self.results.values())
+        return round(self.raw_points * (1.0 - self.penalty), 6)
 
     @property
     def max_points(self) -> float:
         return sum(r["weight"] for r in self.results.values())
 
     def feedback(self) -> str:
-        lines = [f"Student: {self.student}", f"Assignment: {self.assignment}",
-                 f"Submission: {self.submission.name}", f"Score: {self.points:g}/{self.max_points:g}"]
-        if self.status:
-            lines.append(f"Note: {self.status}")
-        lines.append("")
-        for name, r in self.results.items():
-            mark = "PASS" if r["passed"] else "FAIL"
-            lines.append(f"[{mark}] {name} ({r['points']:g}/{r['weight']:g}): {r['message']}")
-        if self.errors:
-            lines += ["", "Errors while running your notebook:"] + [f"  {e}" for e in self.errors]
-        return "\n".join(lines) + "\n"
+        from .report import feedback_text
+
+        return feedback_text(self)
+
+    def to_json(self) -> dict:
+        d = asdict(self)
+        d["submission"] = str(self.submission)
+        return d
+
+    @classmethod
+    def from_json(cls, d: dict) -> Grade:
+        d = dict(d)
+        d["submission"] = Path(d["submission"])
+        return cls(**{k: v for k, v in d.items() if k in cls.__dataclass_fields__})
+
+
+class GradeList(list):
+    """The grades of one run (a list), with the run's summary for the instructor."""
+
+    summary: str = ""
+    ignored: list = []
+    unknown: list = []
 
 
 def load_assignments(solutions_dir: Path, extra_dirs=()) -> dict[str, Assignment]:
+    """Assignments from solutions/*.ipynb and hidden checks from the instructor's folders."""
     registry = checks_mod.discover()
-    # hidden checks: the library's own (declared with uses=...) and those in this call's folders only
-    hidden = {n for n, c in registry.items() if c.uses and checks_mod.is_library_check(n)}
+    hidden: set[str] = set()
     for d in extra_dirs:
         hidden.update(checks_mod.load_check_dir(d))
     out = {}
     for sol in sorted(Path(solutions_dir).glob("*.ipynb")):
-        names = checks_in(nbformat.read(sol, as_version=4))
+        names = [n for n in checks_in(nbformat.read(sol, as_version=4)) if n in registry or n in hidden]
         prefixes = {n.split(".")[0] for n in names}
         extra = [n for n in hidden if n.split(".")[0] in prefixes and n not in names]
         out[sol.stem] = Assignment(sol.stem, sol, names + sorted(extra))
+    orphans = sorted(n for n in hidden if not any(n in a.checks for a in out.values()))
+    if orphans:
+        prefixes = sorted({n.split('.')[0] for a in out.values() for n in a.checks})
+        raise ValueError(f"--checks: {', '.join(orphans)} match(es) no assignment; a hidden check's name must "
+                         f"start with the chapter prefix of a notebook in {solutions_dir} ({', '.join(prefixes)})")
     return out
 
 
-def identify(path: Path, assignments: dict[str, Assignment], forced: str | None) -> tuple[str, str | None]:
-    """(student id, assignment name) for a submission path.
+# -- identity -----------------------------------------------------------------------------------
 
-    ``alice/01_realtime_basics.ipynb`` -> alice; ``01_realtime_basics_alice.ipynb`` -> alice.
+@dataclass
+class Submission:
+    path: Path
+    student: str
+    assignment: str | None
+    notes: list
+
+
+def identify(path: Path, given: Path | None, assignments: dict[str, Assignment],
+             forced: str | None) -> tuple[str, str | None, list[str]]:
+    """(student, assignment, notes) for one notebook.
+
+    The rule (stated in the README): a notebook inside a student's own folder under a folder you
+    passed (``subs/carol/00_setup_exercises.ipynb``) belongs to that folder's name, ``carol``,
+    whatever its file name says; a notebook directly in the folder you passed, or passed as a
+    file, belongs to its file name's suffix after the assignment name
+    (``00_setup_exercises_dave.ipynb`` -> ``dave``), or to its folder's name when there is none.
+    A file name that names someone else is reported, never obeyed.
     """
     stem = path.stem
     if forced:
         name = forced
     else:
-        matches = [a for a in assignments if a in stem]
+        matches = [a for a in assignments if stem.startswith(a) or a in stem]
         name = max(matches, key=len) if matches else None
-    if name and stem == name:
-        student = path.parent.name
-    elif name and name in stem:
-        student = stem.replace(name, "").strip("_-. ") or path.parent.name
+    suffix = stem.replace(name, "", 1).strip("_-. ") if name else ""
+    notes = []
+    if given is not None and path.parent != given:
+        student = path.relative_to(given).parts[0]
+        if suffix and suffix != student:
+            notes.append(f"file name {path.name!r} suggests {suffix!r} but the folder says {student!r}: graded as "
+                         f"{student!r} (folder wins)")
     else:
-        student = stem
-    return student, name
+        student = suffix or path.parent.name or "unknown"
+    return student, name, notes
 
 
-def _limit_memory(megabytes: int):
-    def apply():
-        limit = megabytes * 1024 * 1024
-        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
-    return apply
+def expand(submissions) -> tuple[list[tuple[Path, Path | None]], list[Path]]:
+    """([(notebook, the folder it was found under or None)], [non-notebook files ignored])."""
+    found, ignored = [], []
+    for s in submissions:
+        p = Path(s)
+        if p.is_dir():
+            for q in sorted(p.rglob("*")):
+                if ".ipynb_checkpoints" in q.parts or q.is_dir() or q.name.startswith("."):
+                    continue
+                (found.append((q, p)) if q.suffix == ".ipynb" else ignored.append(q))
+        elif p.is_file():
+            (found.append((p, None)) if p.suffix == ".ipynb" else ignored.append(p))
+        else:
+            raise FileNotFoundError(f"submission {s!r} does not exist; pass notebook files or folders of them")
+    return found, ignored
 
 
-def _kill_tree(pid: int):
-    import psutil
+# -- one submission -----------------------------------------------------------------------------
 
+def _probe_spec(chk: checks_mod.Check) -> dict:
+    module = getattr(chk.probe, "__module__", "") or ""
+    if module.startswith("robocourse."):
+        return {"ref": f"{module}:{chk.probe.__qualname__}"}
     try:
-        root = psutil.Process(pid)
-    except psutil.NoSuchProcess:
-        return
-    procs = root.children(recursive=True) + [root]
-    for p in procs:
+        return {"source": inspect.getsource(chk.probe), "func": chk.probe.__name__}
+    except (OSError, TypeError) as exc:
+        raise ValueError(f"check {chk.name}: its probe {chk.probe!r} has no source the sandbox can run ({exc}); "
+                         "define it with def in the check file") from None
+
+
+def _read_probes(path: Path, wanted: set[str]) -> dict:
+    """The first well-formed record per asked-for check name; everything else is ignored."""
+    text, _ = sandbox.read_bounded(path, MAX_PROBE_BYTES)
+    out = {}
+    for line in text.splitlines():
         try:
-            p.kill()
-        except psutil.NoSuchProcess:
-            pass
-    psutil.wait_procs(procs, timeout=5)
+            r = json.loads(line)
+        except ValueError:
+            continue  # a half-written line from a killed run, or junk
+        if isinstance(r, dict) and r.get("name") in wanted and r["name"] not in out:
+            out[r["name"]] = r
+    return out
 
 
-def grade_one(path: Path, assignment: Assignment | None, student: str, *, time_limit: float,
-              memory_mb: int, cell_timeout: float, extra_dirs=()) -> Grade:
-    g = Grade(student, path, assignment.name if assignment else "?")
+def _check_cells(data: bytes) -> dict[str, int]:
+    try:
+        nb = json.loads(data)
+        cells = nb["cells"]
+    except (ValueError, KeyError, TypeError):
+        return {}
+    where = {}
+    for index, cell in enumerate(cells if isinstance(cells, list) else []):
+        if isinstance(cell, dict) and cell.get("cell_type") == "code":
+            src = cell.get("source", "")
+            src = "".join(src) if isinstance(src, list) else str(src)
+            for name in CHECK_CALL.findall(src):
+                where.setdefault(name, index)
+    return where
+
+
+def warm_font_cache(workroot: Path) -> Path:
+    """Build matplotlib's font list once per run; each sandbox gets a copy (saves ~1 s per notebook)."""
+    cache = workroot / "mplcache"
+    cache.mkdir(exist_ok=True)
+    env = {"PATH": os.environ.get("PATH", "/usr/bin"), "MPLCONFIGDIR": str(cache), "MPLBACKEND": "Agg"}
+    try:
+        subprocess.run([sys.executable, "-c", "import matplotlib.font_manager"], env=env, timeout=120,
+                       capture_output=True)
+    except (OSError, subprocess.TimeoutExpired):
+        pass
+    return cache
+
+
+def grade_one(sub: Submission, assignment: Assignment | None, *, limits: sandbox.Limits, cell_timeout: float,
+              mode: str, workroot: Path) -> Grade:
+    g = Grade(sub.student, sub.path, assignment.name if assignment else "?", notes=list(sub.notes))
     if assignment is None:
         g.status = ("cannot tell which assignment this is: its file name contains no notebook name from "
                     "solutions/; rename it or pass --assignment NAME")
         return g
+    registry = checks_mod.discover()
+    chks = [registry[n] for n in assignment.checks]
+    rng = np.random.default_rng(int.from_bytes(os.urandom(8), "little"))
+    inputs = {c.name: c.make_inputs(rng) for c in chks}
     start = time.monotonic()
-    with tempfile.TemporaryDirectory(prefix="robocourse-grade-") as tmp:
-        results_file, status_file = Path(tmp) / "results.jsonl", Path(tmp) / "status.json"
-        results_file.touch()
-        env = dict(os.environ)
-        env["ROBOCOURSE_TEST"] = "1"
-        env["MPLBACKEND"] = "Agg"
-        env.pop("PYTEST_CURRENT_TEST", None)
-        if extra_dirs:
-            env[checks_mod.EXTRA_CHECKS_ENV] = os.pathsep.join(str(Path(d).resolve()) for d in extra_dirs)
-        cmd = [sys.executable, "-m", "robocourse.grading.runner", str(path.resolve()), str(results_file),
-               str(status_file), "--cell-timeout", str(min(cell_timeout, time_limit)),
-               "--checks", ",".join(assignment.checks)]
-        # The submission runs in a copy of its folder so it cannot overwrite other submissions.
-        proc = subprocess.Popen(cmd, cwd=tmp, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                preexec_fn=_limit_memory(memory_mb), start_new_session=True)
-        timed_out = False
+    try:
+        data = sub.path.read_bytes()[:MAX_NOTEBOOK_BYTES + 1]
+    except OSError as exc:
+        data, g.status = b"", f"cannot read the submission: {exc}"
+    if len(data) > MAX_NOTEBOOK_BYTES:
+        g.status = f"the notebook is larger than {MAX_NOTEBOOK_BYTES // 2**20} MB; clear its outputs and resubmit"
+    where = _check_cells(data)
+    probed: dict = {}
+    status: dict = {}
+    if not g.status:
+        work = Path(tempfile.mkdtemp(prefix="sub-", dir=workroot))
         try:
-            _, err = proc.communicate(timeout=time_limit)
-        except subprocess.TimeoutExpired:
-            timed_out = True
-            status = _read_json(status_file)
-            if status.get("kernel_pid"):
-                _kill_tree(status["kernel_pid"])
-            _kill_tree(proc.pid)
-            _, err = proc.communicate()
-        status = _read_json(status_file)
-        recorded = _read_results(results_file)
-    g.seconds = time.monotonic() - start
-    g.errors = list(status.get("errors", []))[:20]
-    if timed_out:
-        g.status = f"stopped after the {time_limit:g} s time limit (an endless loop or a very slow cell)"
-    elif status.get("reason"):
-        g.status = status["reason"]
-    elif not status:
-        tail = (err or b"").decode(errors="replace").strip().splitlines()[-1:] or ["no output"]
-        g.status = f"the grading process failed before running the notebook: {tail[0][:200]}"
-    if status.get("output_truncated"):
-        g.status = (g.status + "; " if g.status else "") + "output was too large and was truncated"
-    for name in assignment.checks:
-        weight = registry_weight(name)
-        if name in recorded:
-            r = recorded[name]
-            g.results[name] = {"points": float(r["points"]), "weight": weight,
-                               "passed": bool(r["passed"]), "message": r["message"]}
+            os.chmod(work, 0o700)
+            (work / runner.NOTEBOOK).write_bytes(data)
+            (work / "tmp").mkdir()
+            for cached in (workroot / "mplcache").glob("fontlist-*.json"):
+                shutil.copy(cached, work / "tmp" / cached.name)
+            request = {"cell_timeout": min(cell_timeout, limits.time_s),
+                       "checks": [{"name": c.name, "uses": list(c.uses), "probe": _probe_spec(c),
+                                   "inputs": inputs[c.name], "time_limit": c.time_limit,
+                                   "references": list(c.references)} for c in chks]}
+            (work / "request.json").write_text(json.dumps(request))
+            outcome = sandbox.run([sys.executable, "-m", "robocourse.grading.runner",
+                                   sandbox.SANDBOX_ROOT if mode == "bwrap" else str(work)], work, limits, mode)
+            g.sandbox = outcome.sandbox
+            probed = _read_probes(work / runner.PROBES, set(assignment.checks))
+            text, _ = sandbox.read_bounded(work / runner.STATUS, 1_000_000)
+            try:
+                status = json.loads(text) if text else {}
+                status = status if isinstance(status, dict) else {}
+            except ValueError:
+                status = {}
+            if outcome.stopped == "time":
+                g.status = f"stopped after the {limits.time_s:g} s time limit (an endless loop or a very slow cell)"
+            elif outcome.stopped == "memory":
+                g.status = f"stopped: used more than the {limits.memory_mb} MB memory limit"
+            elif outcome.stopped == "processes":
+                g.status = f"stopped: started more than {limits.max_processes} processes"
+            elif isinstance(status.get("reason"), str) and status["reason"]:
+                g.status = status["reason"][:500]
+            elif not status.get("finished"):
+                g.status = ("the notebook's process died (os._exit, a crash, or the memory limit); "
+                            "checks after that point did not run")
+                if not status:
+                    g.errors.append("log: " + outcome.log.strip()[-300:])
+            if outcome.leftover:
+                g.notes.append(f"{outcome.leftover} process(es) survived the kill")
+            if isinstance(status.get("output_chars"), int) and status["output_chars"] > limits.output_bytes:
+                g.notes.append(f"printed {status['output_chars']} characters (not kept)")
+            errs = status.get("errors", [])
+            g.errors += [str(e)[:300] for e in (errs if isinstance(errs, list) else [])][:20]
+        finally:
+            shutil.rmtree(work, ignore_errors=True)
+    g.seconds = round(time.monotonic() - start, 3)
+    for chk in chks:
+        r = probed.get(chk.name)
+        if r is None:
+            why = g.status or "its probe never ran (the notebook stopped before)"
+            result = checks_mod.Result(chk.name, False, 0.0, chk.weight, f"did not run: {why}", reason="no_output")
         else:
-            why = g.status or "its check cell was deleted or never reached"
-            g.results[name] = {"points": 0.0, "weight": weight, "passed": False, "message": f"did not run: {why}"}
+            result = checks_mod.judge(chk, inputs[chk.name], r)
+        if result.reason == "check_error":
+            g.instructor.append(result.extra.get("instructor", chk.name))
+        g.results[chk.name] = {"points": min(result.points, chk.weight), "weight": chk.weight,
+                               "passed": result.passed, "message": result.message, "reason": result.reason,
+                               "cell": where.get(chk.name)}
     return g
 
 
-def registry_weight(name: str) -> float:
-    chk = checks_mod.discover().get(name)
-    return chk.weight if chk else 1.0
+# -- the run ------------------------------------------------------------------------------------
+
+def journal_key(sub: Submission, assignment: Assignment | None, data: bytes) -> str:
+    h = hashlib.sha256(data)
+    h.update(json.dumps([str(sub.path.resolve()), sub.student, assignment.name if assignment else None,
+                         assignment.checks if assignment else []]).encode())
+    return h.hexdigest()
 
 
-def _read_json(path: Path) -> dict:
-    try:
-        return json.loads(path.read_text())
-    except (OSError, ValueError):
-        return {}
+class Journal:
+    """Append-only JSON lines, one per finished submission, fsync'ed (nothing lost on a kill)."""
 
+    def __init__(self, path: Path):
+        self.path = path
+        self.lock = threading.Lock()
+        self.done: dict[str, dict] = {}
+        if path.exists():
+            for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
+                try:
+                    entry = json.loads(line)
+                    self.done[entry["key"]] = entry["grade"]
+                except (ValueError, KeyError, TypeError):
+                    continue  # the half line a killed grader left
 
-def _read_results(path: Path) -> dict:
-    out = {}
-    try:
-        text = path.read_text(errors="replace")
-    except OSError:
-        return out
-    for line in text.splitlines():
-        try:
-            r = json.loads(line)
-            out[r["name"]] = r
-        except (ValueError, KeyError, TypeError):
-            continue  # a half-written line from a killed kernel
-    return out
-
-
-def expand(submissions) -> list[Path]:
-    paths = []
-    for s in submissions:
-        p = Path(s)
-        if p.is_dir():
-            paths += sorted(q for q in p.rglob("*.ipynb") if ".ipynb_checkpoints" not in q.parts)
-        elif p.exists():
-            paths.append(p)
-        else:
-            raise FileNotFoundError(f"submission {s!r} does not exist; pass notebook files or folders of them")
-    return paths
+    def append(self, key: str, grade: Grade) -> None:
+        line = json.dumps({"key": key, "grade": grade.to_json(), "time": time.time()}) + "\n"
+        with self.lock, open(self.path, "a", encoding="utf-8") as fh:
+            fh.write(line)
+            fh.flush()
+            os.fsync(fh.fileno())
 
 
 def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: float = 300.0,
-          memory_mb: int = 4096, cell_timeout: float = 120.0, extra_dirs=(), assignment: str | None = None,
-          out: str | os.PathLike | None = None, feedback_dir: str | os.PathLike | None = None,
-          progress=None) -> list[Grade]:
-    """Grade every submission; write the CSV and feedback files if asked; return the grades."""
+          memory_mb: int = 4096, max_processes: int = 64, cell_timeout: float = 120.0, extra_dirs=(),
+          assignment: str | None = None, out: str | os.PathLike | None = None,
+          feedback_dir: str | os.PathLike | None = None, progress=None, sandbox_mode: str = "auto",
+          force: bool = False, due: dt.datetime | None = None, late_penalty: float = 0.0,
+          overrides: str | os.PathLike | None = None, canvas: str | os.PathLike | None = None,
+          gradescope: str | os.PathLike | None = None, resume: bool = True) -> GradeList:
+    """Grade every submission; write the CSV, exports and feedback if asked; return the grades."""
+    from . import report
+
     if jobs < 1:
         raise ValueError(f"-j must be at least 1, got {jobs}")
-    if time_limit <= 0 or memory_mb < 256:
-        raise ValueError(f"time limit must be > 0 s and memory >= 256 MB, got {time_limit} s, {memory_mb} MB")
+    if not 0 <= late_penalty <= 100:
+        raise ValueError(f"--late-penalty is a percentage per started day in 0..100, got {late_penalty}")
+    limits = sandbox.Limits(time_limit, memory_mb, max_processes)
+    mode = sandbox.choose_mode(sandbox_mode)
     assignments = load_assignments(Path(solutions_dir), extra_dirs)
     if not assignments:
         raise FileNotFoundError(f"no solution notebooks in {solutions_dir!r}; pass --solutions DIR")
     if assignment and assignment not in assignments:
         raise ValueError(f"--assignment {assignment!r} is not one of {sorted(assignments)}")
-    paths = expand(submissions)
-    work = []
-    for p in paths:
-        student, name = identify(p, assignments, assignment)
-        work.append((p, assignments.get(name) if name else None, student))
-    grades: list[Grade] = [None] * len(work)  # type: ignore[list-item]
-    with concurrent.futures.ThreadPoolExecutor(max_workers=jobs) as pool:
-        futures = {pool.submit(grade_one, p, a, s, time_limit=time_limit, memory_mb=memory_mb,
-                               cell_timeout=cell_timeout, extra_dirs=extra_dirs): i
-                   for i, (p, a, s) in enumerate(work)}
-        for fut in concurrent.futures.as_completed(futures):
-            i = futures[fut]
-            grades[i] = fut.result()
-            if progress:
-                progress(grades[i])
+    found, ignored = expand(submissions)
+    if not found:
+        raise FileNotFoundError(f"no notebooks (*.ipynb) in {', '.join(map(str, submissions)) or 'the arguments'}"
+                                + (f" ({len(ignored)} other file(s) ignored)" if ignored else "")
+                                + "; pass the folder holding the students' notebooks")
+    override_rows = report.read_overrides(overrides) if overrides else []
+    subs = []
+    for path, given in found:
+        student, name, notes = identify(path, given, assignments, assignment)
+        subs.append(Submission(path, student, name, notes))
+    seen: dict[tuple, list[Submission]] = {}
+    for s in subs:
+        seen.setdefault((s.student, s.assignment), []).append(s)
+    for (student, name), group in seen.items():
+        if len(group) > 1 and name:
+            for s in group:
+                others = [str(o.path) for o in group if o is not s]
+                s.notes.append(f"duplicate: {student} also submitted {', '.join(others)} for {name}; both graded")
+    unknown = [s.path for s in subs if s.assignment is None]
+
+    journal = Journal(Path(f"{out}.journal.jsonl")) if out else None
+    workroot = Path(tempfile.mkdtemp(prefix="robocourse-grade-"))
+    os.chmod(workroot, 0o700)
+    if any(s.assignment for s in subs):
+        warm_font_cache(workroot)
+    grades: list[Grade | None] = [None] * len(subs)
+
+    def one(i: int) -> Grade:
+        s = subs[i]
+        a = assignments.get(s.assignment) if s.assignment else None
+        try:
+            data = s.path.read_bytes()
+        except OSError:
+            data = b""
+        key = journal_key(s, a, data)
+        if journal and resume and key in journal.done:
+            g = Grade.from_json(journal.done[key])
+            g.resumed = True
+            return g
+        try:
+            g = grade_one(s, a, limits=limits, cell_timeout=cell_timeout, mode=mode, workroot=workroot)
+        except Exception as exc:  # the grader's own failure: reported, never blamed on the student
+            g = Grade(s.student, s.path, a.name if a else "?", notes=list(s.notes),
+                      status=f"not graded: the grader failed ({type(exc).__name__}: {str(exc)[:200]})",
+                      instructor=[f"{s.path}: the grader raised {type(exc).__name__}: {str(exc)[:200]}"])
+            return g  # not journaled: a re-run grades it again
+        if journal:
+            journal.append(key, g)
+        return g
+
+    start = time.monotonic()
+    try:
+        with concurrent.futures.ThreadPoolExecutor(max_workers=jobs) as pool:
+            futures = {pool.submit(one, i): i for i in range(len(subs))}
+            for fut in concurrent.futures.as_completed(futures):
+                i = futures[fut]
+                grades[i] = fut.result()
+                if progress:
+                    progress(grades[i])
+    finally:
+        shutil.rmtree(workroot, ignore_errors=True)
+    result = GradeList(g for g in grades if g is not None)
+    if due is not None:
+        report.apply_late(result, due, late_penalty)
+    report.apply_overrides(result, override_rows)
+    result.ignored, result.unknown = ignored, unknown
+    result.summary = report.summary(result, ignored=ignored, unknown=unknown, seconds=time.monotonic() - start,
+                                    mode=mode, jobs=jobs, due=due, late_penalty=late_penalty)
     if out:
-        write_csv(grades, out)
+        write_csv(result, out, force=force)
+        Path(f"{out}.summary.txt").write_text(result.summary, encoding="utf-8")
+    if canvas:
+        report.write_canvas(result, canvas)
+    if gradescope:
+        report.write_gradescope(result, gradescope)
     if feedback_dir:
-        write_feedback(grades, feedback_dir)
-    return grades
+        report.write_feedback(result, feedback_dir)
+    return result
 
 
-def write_csv(grades: list[Grade], out) -> None:
+def _rows(path) -> int:
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            return max(0, sum(1 for _ in csv.reader(fh)) - 1)
+    except OSError:
+        return 0
+
+
+def write_csv(grades: list[Grade], out, *, force: bool = False) -> None:
+    """One row per submission; refuses to replace a CSV that has more rows unless ``force``."""
+    existing = _rows(out) if Path(out).exists() else 0
+    if existing > len(grades) and not force:
+        raise ValueError(f"{out} already holds {existing} graded row(s) and this run has only {len(grades)}; "
+                         "refusing to overwrite it: pass --force, or --out another file")
     columns: list[str] = []
     for g in grades:
         for name in g.results:
             if name not in columns:
                 columns.append(name)
-    with open(out, "w", newline="", encoding="utf-8") as fh:
+    tmp = Path(f"{out}.tmp")
+    with open(tmp, "w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
-        w.writerow(["student", "assignment", "submission", *columns, "total", "max", "status"])
-        for g in grades:
+        w.writerow(["student", "assignment", "submission", *columns, "total", "max", "late_days", "sandboxed",
+                    "status"])
+        for g in sorted(grades, key=lambda g: (g.student, g.assignment, str(g.submission))):
+            status = "; ".join([g.status] * bool(g.status) + g.notes
+                               + [f"CHECK ERROR (instructor): {e}" for e in g.instructor])
             w.writerow([g.student, g.assignment, str(g.submission),
                         *[f"{g.results[c]['points']:g}" if c in g.results else "" for c in columns],
-                        f"{g.points:g}", f"{g.max_points:g}", g.status])
+                        f"{g.points:g}", f"{g.max_points:g}", g.late_days,
+                        {"bwrap": "yes", "process": "NO (not sandboxed)", "": ""}[g.sandbox], status])
+    os.replace(tmp, out)
 
 
-def write_feedback(grades: list[Grade], directory) -> None:
-    d = Path(directory)
-    d.mkdir(parents=True, exist_ok=True)
-    for g in grades:
-        safe = "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in g.student) or "student"
-        (d / f"{safe}__{g.assignment}.txt").write_text(g.feedback(), encoding="utf-8")
+_SAFE = re.compile(r"[^A-Za-z0-9._-]")
+
+
+def safe_name(text: str) -> str:
+    return _SAFE.sub("_", text) or "student"

@@ -1,131 +1,184 @@
-"""Execute one submitted notebook for the grader, in its own process (``python -m``).
+"""Inside the sandbox: execute one notebook and gather the probes' data (``python -m``).
 
-The parent (``grader.py``) starts this module with a memory rlimit and kills its whole process
-tree after the time limit. Here we: read the notebook (invalid JSON -> a status, not a crash),
-pick the kernel, append the cell that runs instructor-added checks, execute every cell with a
-per-cell timeout (errors and ``sys.exit`` do not stop the run), cap stored output, and write a
-status JSON. Check results themselves are appended by ``checks.check`` to the results file.
+Started by ``grader.py`` through ``sandbox.run`` with the sandbox folder as its only argument.
+It reads the grader's request (which checks, their inputs, their probes), deletes it, runs the
+notebook's code cells in an IPython shell in this process (magics and display work as in
+Jupyter; no kernel, no sockets), and right after the cell that calls ``check("name", ...)``
+(or at the end, for a deleted check cell or an instructor's hidden check) runs that check's
+probe on the notebook's globals. Each probe's data is appended to ``probes.jsonl`` at once, so
+a notebook that crashes later keeps what was gathered before. Nothing here decides a grade:
+everything this process writes is treated by the grader as the student's untrusted output.
+
+Each cell has a time limit (SIGALRM interrupts it; execution goes on with the next cell);
+``sys.exit`` and exceptions are recorded as cell errors; printed output is counted, not kept.
 """
 
 from __future__ import annotations
 
-import argparse
+import io
 import json
 import os
+import signal
 import sys
 import time
-
-import nbformat
-from nbclient import NotebookClient
-from nbclient.exceptions import DeadKernelError
+from pathlib import Path
 
 PYTHON_KERNEL_NAMES = ("robocourse", "python3", "python", "python2")
+REQUEST, PROBES, STATUS, NOTEBOOK = "request.json", "probes.jsonl", "status.json", "submission.ipynb"
 
 
-class CappedClient(NotebookClient):
-    """nbclient with a cap on stored output bytes (nbgrader limits output size the same way)."""
-
-    def __init__(self, nb, max_output_bytes: int, **kw):
-        super().__init__(nb, **kw)
-        self.max_output_bytes = max_output_bytes
-        self.output_bytes = 0
-        self.output_truncated = False
-
-    def output(self, outs, msg, display_id, cell_index):
-        size = len(json.dumps(msg.get("content", {}), default=str))
-        self.output_bytes += size
-        if self.output_bytes > self.max_output_bytes:
-            self.output_truncated = True
-            return None
-        return super().output(outs, msg, display_id, cell_index)
+class CellTimeout(BaseException):
+    """A cell ran past the per-cell time limit (BaseException: a bare ``except Exception`` cannot eat it)."""
 
 
-def choose_kernel(nb) -> tuple[str | None, str]:
-    """(kernel name to run, reason). None when the notebook needs a kernel we cannot give it."""
-    from jupyter_client.kernelspec import KernelSpecManager
+class _CountingSink(io.TextIOBase):
+    """sys.stdout/stderr replacement: counts characters, keeps none (output is not graded)."""
 
-    spec = nb.metadata.get("kernelspec", {}) or {}
-    name = spec.get("name", "")
-    language = (spec.get("language") or nb.metadata.get("language_info", {}).get("name") or "python").lower()
-    installed = KernelSpecManager().find_kernel_specs()
-    python_like = language == "python" or name in PYTHON_KERNEL_NAMES or name.startswith("python")
-    if not python_like:
-        return None, (f"the notebook asks for kernel {name or '?'!r} (language {language!r}), which cannot run "
-                      "the exercise; open it in JupyterLab, pick 'Python (robocourse)' and save")
-    for candidate in ("robocourse", "python3"):
-        if candidate in installed:
-            return candidate, f"ran with kernel {candidate!r} (notebook said {name or 'nothing'!r})"
-    return None, f"no Python kernel is installed for grading (have: {sorted(installed)}); run `make setup`"
+    def __init__(self):
+        self.chars = 0
+
+    def write(self, s):
+        self.chars += len(s)
+        return len(s)
+
+    def writable(self):
+        return True
+
+    def isatty(self):
+        return False
+
+
+def kernel_problem(nb: dict) -> str:
+    """'' when the notebook is Python; else why it cannot be graded."""
+    meta = nb.get("metadata", {}) or {}
+    spec = meta.get("kernelspec", {}) or {}
+    name = str(spec.get("name", ""))
+    language = str(spec.get("language") or (meta.get("language_info", {}) or {}).get("name") or "python").lower()
+    if language == "python" or name in PYTHON_KERNEL_NAMES or name.startswith("python"):
+        return ""
+    return (f"the notebook asks for kernel {name or '?'!r} (language {language!r}), which cannot run the exercise; "
+            "open it in JupyterLab, pick 'Python (robocourse)' and save")
+
+
+def _load_probe(spec: dict):
+    from .checks import resolve
+    from .probes import call, calls, plain
+
+    if "ref" in spec:
+        return resolve(spec["ref"])
+    namespace = {"call": call, "calls": calls, "plain": plain, "__name__": "robocourse_probe"}
+    exec(compile(spec["source"], "<instructor probe>", "exec"), namespace)  # the instructor's probe text
+    return namespace[spec["func"]]
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("notebook")
-    ap.add_argument("results", help="JSON-lines file the checks append to")
-    ap.add_argument("status", help="JSON file this runner writes its outcome to")
-    ap.add_argument("--cell-timeout", type=float, default=60.0)
-    ap.add_argument("--max-output-bytes", type=int, default=1_000_000)
-    ap.add_argument("--checks", default="", help="comma-separated expected check names")
-    args = ap.parse_args(argv)
-
-    status = {"ok": False, "reason": "", "errors": [], "kernel_pid": None, "seconds": 0.0}
+    argv = sys.argv[1:] if argv is None else argv
+    folder = Path(argv[0] if argv else ".")
+    status = {"started": True, "finished": False, "reason": "", "errors": [], "cells": 0, "last_cell": -1,
+              "output_chars": 0}
 
     def write_status():
-        with open(args.status, "w", encoding="utf-8") as fh:
-            json.dump(status, fh)
+        (folder / STATUS).write_text(json.dumps(status))
 
+    # a write past the file-size limit fails with EFBIG instead of killing the run
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    request = json.loads((folder / REQUEST).read_text())
+    (folder / REQUEST).unlink()
+    cell_timeout = float(request.get("cell_timeout", 60))
+    try:
+        import nbformat
+
+        nb = nbformat.reads((folder / NOTEBOOK).read_text(encoding="utf-8"), as_version=4)
+        nbformat.validate(nb)
+        cells = list(nb.cells)
+    except Exception as exc:  # invalid JSON, wrong schema
+        status["reason"] = (f"the file is not a valid notebook ({type(exc).__name__}: {str(exc)[:200]}); "
+                            "re-download it or save it again from JupyterLab")
+        status["finished"] = True
+        write_status()
+        return 0
+    problem = kernel_problem(nb)
+    if problem:
+        status["reason"], status["finished"] = problem, True
+        write_status()
+        return 0
+
+    from .checks import Check, run_probe
+    from .exercises import CHECK_CALL
+
+    pending = {c["name"]: c for c in request["checks"]}
+    after_cell: dict[int, list[str]] = {}
+    for index, cell in enumerate(cells):
+        if cell.get("cell_type") == "code":
+            for name in CHECK_CALL.findall(cell.get("source", "")):
+                if name in pending and not any(name in v for v in after_cell.values()):
+                    after_cell.setdefault(index, []).append(name)
+
+    sink = _CountingSink()
+    sys.stdout = sys.stderr = sink
+    from IPython.core.interactiveshell import InteractiveShell
+
+    class Shell(InteractiveShell):
+        def enable_gui(self, gui=None):  # %matplotlib inline without a GUI event loop
+            pass
+
+    shell = Shell.instance(colors="NoColor")
+    probes_out = open(folder / PROBES, "a", encoding="utf-8")
+
+    def probe(name):
+        spec = pending.pop(name, None)
+        if spec is None:
+            return
+        missing = [u for u in spec["uses"] if u not in shell.user_ns]
+        if missing:
+            data = {"outputs": None, "reason": "missing", "delegated": [], "seconds": 0.0,
+                    "error": f"the notebook defines no {', '.join(missing)}: keep the names the exercise asks for"}
+        else:
+            chk = Check(name, None, _load_probe(spec["probe"]), tuple(spec["uses"]), None, 1.0,
+                        float(spec["time_limit"]), "", tuple(spec.get("references", ())))
+            data = run_probe(chk, spec["inputs"], [shell.user_ns[u] for u in spec["uses"]])
+        try:
+            line = json.dumps({"name": name, **data})
+        except (TypeError, ValueError) as exc:
+            line = json.dumps({"name": name, "outputs": None, "reason": "raised", "delegated": [],
+                               "error": f"the output could not be sent to the grader ({exc})"})
+        probes_out.write(line + "\n")
+        probes_out.flush()
+
+    def on_alarm(signum, frame):
+        raise CellTimeout(f"interrupted after the {cell_timeout:g} s cell time limit")
+
+    signal.signal(signal.SIGALRM, on_alarm)
     start = time.monotonic()
-    try:
-        nb = nbformat.read(args.notebook, as_version=4)
-    except Exception as exc:  # invalid JSON, wrong schema, unreadable file
-        status["reason"] = f"the file is not a valid notebook ({type(exc).__name__}: {str(exc)[:200]}); re-download it or save it again from JupyterLab"
+    for index, cell in enumerate(cells):
+        if cell.get("cell_type") != "code":
+            continue
+        status["last_cell"] = index
         write_status()
-        return 0
-
-    kernel, why = choose_kernel(nb)
-    status["kernel"] = why
-    if kernel is None:
-        status["reason"] = why
-        write_status()
-        return 0
-
-    names = [n for n in args.checks.split(",") if n]
-    nb.cells.append(nbformat.v4.new_code_cell(
-        "import robocourse.grading as _rc_grading\n"
-        f"_rc_grading.run_pending(globals(), names={names!r})"
-    ))
-    os.environ["ROBOCOURSE_GRADING_RESULTS"] = os.path.abspath(args.results)
-    os.environ.setdefault("ROBOCOURSE_TEST", "1")
-    os.environ.setdefault("MPLBACKEND", "Agg")
-
-    client = CappedClient(
-        nb, args.max_output_bytes, kernel_name=kernel, timeout=int(max(1, args.cell_timeout)),
-        allow_errors=True, interrupt_on_timeout=True,
-        error_on_timeout={"ename": "CellTimeout", "evalue": f"cell exceeded {args.cell_timeout:g} s", "traceback": []},
-        record_timing=False,
-        resources={"metadata": {"path": os.path.dirname(os.path.abspath(args.notebook))}},
-    )
-    try:
-        with client.setup_kernel():
-            status["kernel_pid"] = getattr(client.km.provisioner, "pid", None) if client.km else None
-            write_status()
-            for index, cell in enumerate(client.nb.cells):
-                client.execute_cell(cell, index)
-                for out in cell.get("outputs", []):
-                    if out.get("output_type") == "error":
-                        ename, evalue = out.get("ename"), str(out.get("evalue"))[:200]
-                        if ename == "KeyboardInterrupt":  # nbclient interrupts a cell at its timeout
-                            ename, evalue = "CellTimeout", f"interrupted after the {args.cell_timeout:g} s cell time limit"
-                        status["errors"].append(f"cell {index}: {ename}: {evalue}")
-        status["ok"] = True
-    except DeadKernelError:
-        status["reason"] = "the kernel died (os._exit, a crash, or the memory limit); checks after that point did not run"
-    except Exception as exc:
-        status["reason"] = f"execution stopped: {type(exc).__name__}: {str(exc)[:300]}"
-    status["output_truncated"] = client.output_truncated
+        signal.setitimer(signal.ITIMER_REAL, cell_timeout)
+        try:
+            result = shell.run_cell(cell.get("source", ""), store_history=False, silent=False)
+        except CellTimeout as exc:  # fired outside the user's code, between IPython's steps
+            result = None
+            status["errors"].append(f"cell {index}: CellTimeout: {exc}")
+        finally:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+        if result is not None:
+            err = result.error_before_exec or result.error_in_exec
+            if err is not None:
+                ename = type(err).__name__
+                status["errors"].append(f"cell {index}: {ename}: {str(err)[:200]}")
+        for name in after_cell.get(index, []):
+            probe(name)
+        status["cells"] += 1
+    for name in list(pending):
+        probe(name)
+    status["finished"] = True
     status["seconds"] = round(time.monotonic() - start, 3)
+    status["output_chars"] = sink.chars
     write_status()
-    return 0
+    probes_out.close()
+    os._exit(0)  # threads a notebook left running must not keep the sandbox alive
 
 
 if __name__ == "__main__":

@@ -1,11 +1,15 @@
-"""Checks for chapter 3's exercises (solutions/03_mycar_exercises.ipynb)."""
+"""Checks for chapter 3's exercises (solutions/03_mycar_exercises.ipynb), as probe + judge.
+
+Fresh twists, wheel bases and watchdog timings every run; the judges compare with
+``mycar.kinematics`` and with the watchdog's stated rule (trip once, re-arm on feed).
+"""
 
 from __future__ import annotations
 
 import math
-import random
 
-from robocourse.grading import CheckFailed, register
+from robocourse.grading import CheckFailed, Failures, register
+from robocourse.grading.probes import call, number, plain
 
 from . import kinematics as kin
 
@@ -23,73 +27,131 @@ QUIZ = {
 }
 
 
-@register("ch03.kinematics", weight=2, time_limit=10)
-def check_kinematics(inverse_kinematics, forward_kinematics):
+def _kin_inputs(rng):
+    cases = [[0.2, 1.0, 0.15]]
+    cases += [[float(rng.uniform(-1, 1)), float(rng.uniform(-5, 5)), float(rng.uniform(0.05, 0.5))] for _ in range(50)]
+    return cases
+
+
+def _kin_probe(inputs, inverse_kinematics, forward_kinematics):
+    out = []
+    for v, w, b in inputs:
+        inv = call(inverse_kinematics, v, w, b)
+        fwd = call(forward_kinematics, *inv["value"], b) if isinstance(inv.get("value"), list) \
+            and len(inv["value"]) == 2 else {"raised": "skipped", "message": "inverse_kinematics failed"}
+        out.append({"inverse": inv, "forward": fwd})
+    return out
+
+
+def _pair(got) -> tuple[float, float] | None:
+    v = got.get("value")
+    if not isinstance(v, list) or len(v) != 2:
+        return None
+    return number(v[0]), number(v[1])
+
+
+@register("ch03.kinematics", weight=2, time_limit=10, uses=("inverse_kinematics", "forward_kinematics"),
+          probe=_kin_probe, inputs=_kin_inputs,
+          references=("robocourse.mycar.kinematics:twist_to_wheel_speeds",
+                      "robocourse.mycar.kinematics:wheel_speeds_to_twist"))
+def check_kinematics(inputs, outputs):
     """inverse/forward differential-drive kinematics agree with the model and with each other."""
-    left, right = inverse_kinematics(0.2, 1.0, 0.15)
-    if not (math.isclose(left, 0.125, abs_tol=1e-9) and math.isclose(right, 0.275, abs_tol=1e-9)):
-        raise CheckFailed(f"inverse_kinematics(0.2, 1.0, 0.15) = ({left}, {right}); expected (0.125, 0.275): "
-                          "each wheel moves at v -+ w * wheel_base / 2 (left is the inner wheel when turning left)")
-    rng = random.Random(3)
-    for _ in range(200):
-        v, w, b = rng.uniform(-1, 1), rng.uniform(-5, 5), rng.uniform(0.05, 0.5)
-        vl, vr = inverse_kinematics(v, w, b)
-        v2, w2 = forward_kinematics(vl, vr, b)
+    f = Failures()
+    for (v, w, b), got in zip(inputs, outputs, strict=True):
+        inv = _pair(got["inverse"])
         ref = kin.twist_to_wheel_speeds(v, w, kin.DiffDriveGeometry(wheel_base=b))
-        if not (math.isclose(vl, ref[0], abs_tol=1e-9) and math.isclose(vr, ref[1], abs_tol=1e-9)):
-            raise CheckFailed(f"inverse_kinematics({v:.3f}, {w:.3f}, {b:.3f}) = ({vl:.4f}, {vr:.4f}), "
-                              f"expected ({ref[0]:.4f}, {ref[1]:.4f})")
-        if not (math.isclose(v2, v, abs_tol=1e-9) and math.isclose(w2, w, abs_tol=1e-9)):
-            raise CheckFailed(f"forward(inverse(v={v:.3f}, w={w:.3f})) gave ({v2:.4f}, {w2:.4f}): the round trip must "
-                              "return the same twist; w = (right - left) / wheel_base")
-    return "200 random round trips exact"
+        if inv is None:
+            f.add(f"inverse_kinematics({v:.3f}, {w:.3f}, {b:.3f}) must return (left, right); got "
+                  f"{got['inverse'].get('value', got['inverse'].get('raised'))!r}")
+            break
+        if not (math.isclose(inv[0], ref[0], abs_tol=1e-9) and math.isclose(inv[1], ref[1], abs_tol=1e-9)):
+            hint = ""
+            if math.isclose(inv[0], ref[1], abs_tol=1e-9) and math.isclose(inv[1], ref[0], abs_tol=1e-9):
+                hint = ": left and right swapped (left is the inner wheel when turning left)"
+            f.add(f"inverse_kinematics({v:.3f}, {w:.3f}, {b:.3f}) = ({inv[0]:.4f}, {inv[1]:.4f}), expected "
+                  f"({ref[0]:.4f}, {ref[1]:.4f}): each wheel moves at v -+ w * wheel_base / 2{hint}")
+            break
+    for (v, w, _b), got in zip(inputs, outputs, strict=True):
+        fwd = _pair(got["forward"]) if isinstance(got["forward"], dict) else None
+        if fwd is None or not (math.isclose(fwd[0], v, abs_tol=1e-9) and math.isclose(fwd[1], w, abs_tol=1e-9)):
+            shown = f"({fwd[0]:.4f}, {fwd[1]:.4f})" if fwd else repr(got["forward"].get("raised"))
+            f.add(f"forward(inverse(v={v:.3f}, w={w:.3f})) gave {shown}: the round trip must return the same twist; "
+                  "w = (right - left) / wheel_base")
+            break
+    return f.done(f"{len(inputs)} random round trips exact")
 
 
-@register("ch03.watchdog", weight=2, time_limit=10)
-def check_watchdog(Watchdog):
+def _dog_inputs(rng):
+    # binary-exact times (multiples of 1/64 s), so "more than timeout" has no rounding ties
+    return {"timeout": float(rng.choice([0.125, 0.25, 0.5])), "feed": float(rng.integers(1, 8)) / 2,
+            "step": 1 / 64}
+
+
+def _dog_probe(inputs, Watchdog):
+    timeout, feed, step = inputs["timeout"], inputs["feed"], inputs["step"]
+    dog = Watchdog(timeout)
+    early = dog.update(0.05)
+    dog.feed(feed)
+    times = [feed + step * k for k in range(1, int(1.0 / step))]
+    trips = [t for t in times if dog.update(t)]
+    stopped = getattr(dog, "stopped", None)
+    dog.feed(feed + 1.0)
+    rearmed = getattr(dog, "stopped", None)
+    soon = dog.update(feed + 1.0 + timeout / 2)
+    later = dog.update(feed + 1.0 + timeout + 0.05)
+    return plain({"early": early, "trips": trips, "stopped": stopped, "rearmed_stopped": rearmed, "soon": soon,
+                  "later": later})
+
+
+@register("ch03.watchdog", weight=2, time_limit=10, uses=("Watchdog",), probe=_dog_probe, inputs=_dog_inputs)
+def check_watchdog(inputs, out):
     """Watchdog(timeout): trips once after `timeout` without feed(), re-arms on the next feed()."""
-    dog = Watchdog(0.2)
-    if dog.update(0.05):
-        raise CheckFailed("update(0.05) tripped before any command was ever received: only arm after the first feed()")
-    dog.feed(1.0)
-    trips = [t / 100 for t in range(101, 200) if dog.update(t / 100)]
+    timeout, feed, step = inputs["timeout"], inputs["feed"], inputs["step"]
+    f = Failures()
+    if out["early"]:
+        f.add("update(0.05) tripped before any command was ever received: only arm after the first feed()")
+    trips = [number(t) for t in out["trips"]]
+    first_due = next(feed + step * k for k in range(1, 1000) if step * k > timeout)
     if not trips:
-        raise CheckFailed("fed at t=1.0 s, then update() every 10 ms until 1.99 s never returned True; it must trip "
-                          "once more than 0.2 s passed without feed()")
-    if len(trips) > 1:
-        raise CheckFailed(f"update() returned True {len(trips)} times (first at {trips[0]:.2f} s): report the trip once, "
-                          "not on every check (the seed logs the stop once)")
-    if not (1.2 < trips[0] <= 1.21 + 1e-9):
-        raise CheckFailed(f"tripped at {trips[0]:.2f} s for a feed at 1.00 s and timeout 0.2 s; expected at the first "
-                          "check later than 1.20 s (1.21 s)")
-    if not dog.stopped:
-        raise CheckFailed("after the trip, .stopped must be True")
-    dog.feed(2.0)
-    if dog.stopped:
-        raise CheckFailed("a new feed() must re-arm the watchdog (.stopped False): motion resumes on the next command")
-    if dog.update(2.1):
-        raise CheckFailed("tripped 0.1 s after a feed with a 0.2 s timeout")
-    if not dog.update(2.25):
-        raise CheckFailed("did not trip again 0.25 s after the second feed")
-    return "trips once at 1.21 s, re-arms on feed"
+        f.add(f"fed at t={feed:.2f} s, then update() every {step * 1e3:g} ms for 1 s never returned True; it must trip once more "
+              f"than {timeout:g} s passed without feed()")
+    elif len(trips) > 1:
+        f.add(f"update() returned True {len(trips)} times (first at {trips[0]:.4f} s): report the trip once, not on "
+              "every check (the seed logs the stop once)")
+    if trips and trips[0] != first_due:
+        f.add(f"tripped at {trips[0]:.4f} s for a feed at {feed:g} s and timeout {timeout:g} s; expected at the "
+              f"first check later than {feed + timeout:g} s ({first_due:.4f} s): trip when more than the timeout "
+              "passed, not at exactly the timeout")
+    if trips and out["stopped"] is not True:
+        f.add("after the trip, .stopped must be True")
+    if out["rearmed_stopped"] is not False:
+        f.add("a new feed() must re-arm the watchdog (.stopped False): motion resumes on the next command")
+    if out["soon"]:
+        f.add(f"tripped {timeout / 2:g} s after a feed with a {timeout:g} s timeout")
+    if not out["later"]:
+        f.add(f"did not trip again {timeout + 0.05:g} s after the second feed")
+    return f.done(f"trips once at {first_due:.4f} s (timeout {timeout:g} s after a feed at {feed:g} s), re-arms on feed")
 
 
-@register("ch03.quiz", weight=2, time_limit=5)
-def check_quiz(quiz_answers):
+def _quiz_probe(inputs, quiz_answers):
+    return plain(quiz_answers() if callable(quiz_answers) else quiz_answers)
+
+
+@register("ch03.quiz", weight=2, time_limit=5, uses=("quiz_answers",), probe=_quiz_probe)
+def check_quiz(inputs, answers):
     """Topic, service or action for ten robot features (``quiz_answers()`` returns the dict)."""
-    answers = quiz_answers() if callable(quiz_answers) else quiz_answers
     if not isinstance(answers, dict):
-        raise CheckFailed(f"quiz_answers() must return a dict feature -> 'topic' | 'service' | 'action', got {type(answers).__name__}")
+        raise CheckFailed("quiz_answers() must return a dict feature -> 'topic' | 'service' | 'action'")
     missing = [f for f in QUIZ if f not in answers]
     if missing:
         raise CheckFailed(f"answer every feature; missing: {missing}")
-    wrong = []
+    wrong, bad = [], []
     for feature, (right, why) in QUIZ.items():
         given = str(answers[feature]).strip().lower()
         if given not in ("topic", "service", "action"):
-            raise CheckFailed(f"{feature!r}: answer 'topic', 'service' or 'action', not {answers[feature]!r}")
-        if given != right:
+            bad.append(f"{feature!r}: answer 'topic', 'service' or 'action', not {answers[feature]!r}")
+        elif given != right:
             wrong.append(f"{feature!r} is a {right}, not a {given}: {why}")
-    if wrong:
-        raise CheckFailed(f"{len(QUIZ) - len(wrong)}/{len(QUIZ)} right. " + " | ".join(wrong))
+    if wrong or bad:
+        raise CheckFailed(f"{len(QUIZ) - len(wrong) - len(bad)}/{len(QUIZ)} right.", *bad, *wrong)
     return "10/10"

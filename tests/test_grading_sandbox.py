@@ -1,0 +1,93 @@
+"""The sandbox on its own: no network, an allow-listed environment, limits that end the whole run."""
+
+from __future__ import annotations
+
+import os
+import socket
+import sys
+import threading
+
+import pytest
+
+from robocourse.grading import sandbox
+
+BWRAP = sandbox.bwrap_works()
+needs_bwrap = pytest.mark.skipif(not BWRAP, reason="bubblewrap (bwrap) is missing or cannot create namespaces "
+                                                   "here: network and file-system isolation need it")
+MODES = ["process"] + (["bwrap"] if BWRAP else [])
+
+
+def _run(tmp_path, code, mode, **limits):
+    work = tmp_path / f"w-{mode}"
+    work.mkdir()
+    return sandbox.run([sys.executable, "-c", code], work, sandbox.Limits(**{"time_s": 30, **limits}), mode)
+
+
+@needs_bwrap
+def test_no_network_inside_the_sandbox(tmp_path):
+    server = socket.create_server(("127.0.0.1", 0))
+    port = server.getsockname()[1]
+    got = []
+    server.settimeout(10)
+
+    def accept():
+        try:
+            got.append(server.accept())
+        except OSError:
+            pass
+
+    t = threading.Thread(target=accept)
+    t.start()
+    out = _run(tmp_path, f"import socket\ntry:\n    socket.create_connection(('127.0.0.1', {port}), timeout=3)\n"
+                         "    print('connected')\nexcept OSError as exc:\n    print('refused', type(exc).__name__)",
+               "bwrap")
+    server.close()
+    t.join()
+    assert "refused" in out.log and got == []
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_environment_is_an_allow_list(tmp_path, mode, monkeypatch):
+    monkeypatch.setenv("COURSE_LMS_TOKEN", "secret-123")
+    out = _run(tmp_path, "import os; print(sorted(os.environ))", mode)
+    names = eval(out.log)  # noqa: S307 - our own child's printed list
+    assert "COURSE_LMS_TOKEN" not in names and "ROBOCOURSE_GRADING" in names and "HOME" in names
+    assert "secret-123" not in out.log
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_time_limit_kills_the_whole_group_including_setsid_children(tmp_path, mode):
+    code = ("import subprocess, time\nsubprocess.Popen(['setsid', 'sleep', '984.25'])\n"
+            "subprocess.Popen(['sleep', '984.5'])\ntime.sleep(600)")
+    out = _run(tmp_path, code, mode, time_s=2)
+    assert out.stopped == "time" and out.leftover == 0
+    import psutil
+
+    alive = [p for p in psutil.process_iter(["cmdline"]) if "984." in " ".join(p.info["cmdline"] or [])]
+    assert alive == []
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_output_is_bounded_and_the_file_size_capped(tmp_path, mode):
+    code = ("import os\nchunk = b'y' * (1 << 20)\nwritten = 0\ntry:\n    for _ in range(200):\n"
+            "        written += os.write(1, chunk)\nexcept OSError as exc:\n"
+            "    open('count.txt', 'w').write(f'{written} {exc.errno}')\n")
+    out = _run(tmp_path, code, mode, output_bytes=1000, file_bytes=8 * 1024 * 1024)
+    assert out.log_truncated and len(out.log) == 1000 and out.stopped == ""
+    assert (tmp_path / f"w-{mode}" / "count.txt").read_text() == f"{8 * 1024 * 1024} 27"  # EFBIG at the cap
+
+
+@needs_bwrap
+def test_sandbox_sees_only_its_folder_and_read_only_library(tmp_path):
+    import robocourse
+
+    lib = os.path.dirname(robocourse.__file__)
+    code = (f"import os\nprint(sorted(os.listdir('/submission')))\nprint(os.path.exists({str(tmp_path)!r}))\n"
+            f"print(os.path.exists({os.getcwd()!r} + '/solutions'))\n"
+            f"try:\n    open({lib!r} + '/x.py', 'w')\nexcept OSError as exc:\n    print(type(exc).__name__, exc.errno)\n"
+            "print(len([p for p in os.listdir('/proc') if p.isdigit()]))")
+    out = _run(tmp_path, code, "bwrap")
+    lines = out.log.split("\n")
+    assert lines[0] == "['tmp']" and lines[1] == "False" and lines[2] == "False"
+    assert lines[3] == "OSError 30"  # EROFS: read-only file system
+    assert int(lines[4]) <= 3  # bwrap's init and this process: nothing else is visible
