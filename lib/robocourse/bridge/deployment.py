@@ -301,8 +301,9 @@ class PolicyDeployment:
         return self.stall_at is None or now < self.stall_at
 
     # --- runs ---------------------------------------------------------------------------------------
-    def run_simulated(self, seconds: float, exit_damping_s: float = 0.0) -> Trace:
-        """Deterministic: ``seconds`` of control ticks on simulated time, the policy every decimation ticks."""
+    def run_simulated(self, seconds: float, exit_damping_s: float = 0.0, drawer=None, draw_every: int = 17) -> Trace:
+        """Deterministic: ``seconds`` of control ticks on simulated time, the policy every decimation ticks.
+        ``drawer``: a :class:`robocourse.viz.MujocoDrawer` of ``self.sim.model`` updated every ``draw_every`` ticks."""
         if not (math.isfinite(seconds) and seconds > 0):
             raise ValueError(f"seconds={seconds!r} must be > 0")
         ticks = int(round(seconds * self.update_rate))
@@ -323,6 +324,9 @@ class PolicyDeployment:
             tg[k] = self.sim.commands[:6]
             phases.append(self.phase)
             modes.append("safe" if self.bridge.safe else self._mode)
+            if drawer is not None and k % draw_every == 0:
+                drawer.scene.set_time(now)
+                drawer.update(self.sim.data)
         return Trace(t, q, dq, tg, dist, phases, modes)
 
     def _share_now(self, now: float) -> None:
