@@ -116,11 +116,13 @@ def test_policy_with_the_wrong_action_size_is_refused_before_running():
 
 
 def test_realtime_run_measures_both_threads_and_the_observation_to_command_age():
-    d = PolicyDeployment(NumpyRuntime(ik_policy()), CFG, target=tcp0(), zero_torque_s=0.0, move_s=0.1)
+    d = PolicyDeployment(NumpyRuntime(ik_policy()), CFG, target=tcp0() + [0.05, 0, 0], zero_torque_s=0.0, move_s=0.1)
     r = d.run_realtime(0.6)
+    assert d.cm.controllers[POSITION_CONTROLLER].state == ACTIVE
+    assert d.phase_log[0][1] == MOVE and d.phase_log[1][1] == RUNNING
     assert r.control.iterations == 300
     assert r.policy is not None and r.policy.iterations >= 1
     assert r.thread_report.applied_name == "cerebellum"
     assert len(r.inference_us) == d.runtime.calls > 0
-    assert np.all(r.age_us >= 0)
+    assert len(r.age_us) > 0 and np.all(r.age_us >= 0)   # only the brain's targets carry an observation stamp
     assert "observation -> command age" in r.summary()

@@ -101,7 +101,8 @@ class RealtimeResult:
                     if len(a) else "(none)")
 
         c = np.asarray(self.control.latency_ns, dtype=float) / 1e3
-        rows = [f"control loop wake-up latency (us): {pct(c)}  overruns {self.control.overruns}"]
+        rows = [f"control loop wake-up latency (us): {pct(c)}  overruns {self.control.overruns}",
+                f"control tick duration (us):        {pct(np.asarray(self.control.busy_ns, dtype=float) / 1e3)}"]
         if self.policy is not None:
             p = np.asarray(self.policy.latency_ns, dtype=float) / 1e3
             rows.append(f"policy loop wake-up latency (us):  {pct(p)}")
@@ -184,7 +185,7 @@ class PolicyDeployment:
         self.last_action = np.zeros(n)
         self._effort_cmd = np.zeros(n)
         self.phase, self._phase_t0, self._move_from = None, 0.0, np.zeros(n)
-        self._mode = "position"
+        self._mode = None  # no command controller active yet: the first phase activates one
         self.nan_observations = 0
         self.policy_errors: list[str] = []
         self.inference_ns = np.zeros(200_000, dtype=np.int64)
@@ -210,7 +211,7 @@ class PolicyDeployment:
             self._move_from = self._q.copy()
         if phase == RUNNING:
             self.processor.reset(self._q)
-            self.bridge.submit(self._q, stamp=now, now=now)  # hold here until the brain's first target
+            self.bridge.submit(self._q, now=now)  # hold here until the brain's first target (no stamp: no age)
 
     def _use(self, mode: str) -> None:
         if mode == self._mode:
@@ -348,14 +349,16 @@ class PolicyDeployment:
         ticks = max(1, int(round(seconds * self.update_rate)))
         period_ns = int(round(1e9 / self.update_rate))
         out: dict = {}
-        stop = threading.Event()
-        start = _time.monotonic_ns()
+        stop, started = threading.Event(), threading.Event()
         start_t = self.cm.time
         policy_every = self.decimation
 
         def cerebellum():
             report = configure_realtime_thread("cerebellum", "fifo", priority)
             out["report"] = report
+            # the clock starts after the configuration: mlockall of a large process takes a while
+            start = out["start"] = _time.monotonic_ns()
+            started.set()
 
             def cb(tick):
                 now = start_t + (tick.deadline_ns - start) * 1e-9
@@ -372,6 +375,8 @@ class PolicyDeployment:
 
         def brain():
             threading.current_thread().name = "brain"
+            started.wait()
+            start = out["start"]
             ppn = int(round(1e9 / self.policy_rate))
             loop = PeriodicLoop(ppn, 0, Sleep())
 

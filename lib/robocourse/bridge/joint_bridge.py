@@ -100,7 +100,7 @@ class JointBridge:
         with self._lock:
             self._target[:] = data
             self._received = self._now if now is None else float(now)
-            self._stamp = self._received if stamp is None else float(stamp)
+            self._stamp = None if stamp is None else float(stamp)
             self._seq += 1
             self.accepted += 1
         return True
@@ -109,6 +109,11 @@ class JointBridge:
         self.log.append(text)
         if self.node is not None:
             self.node.get_logger().error(text)
+
+    @property
+    def last_received(self) -> float | None:
+        """When the newest accepted target arrived (None before the first)."""
+        return self._received
 
     # --- cerebellum side ---------------------------------------------------------------------------
     def update(self, now: float, q, dq=None) -> BridgeCommand:
