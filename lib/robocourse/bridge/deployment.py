@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 import threading
 import time as _time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -67,7 +67,9 @@ controller_manager:
 
 @dataclass
 class Trace:
-    """What a simulated run recorded, one row per control tick (numpy arrays)."""
+    """What a simulated run recorded, one row per control tick (numpy arrays): ``q``, ``dq`` (rad, rad/s),
+    ``target`` (the joint commands the servo saw: positions in rad, or torques in N m while an effort
+    phase runs), ``tcp_distance`` (m), ``phase`` and ``mode`` ("position", "effort" or "safe")."""
 
     t: np.ndarray
     q: np.ndarray
@@ -93,7 +95,6 @@ class RealtimeResult:
     thread_report: object
     final_distance: float
     safe_entries: int
-    notes: list = field(default_factory=list)
 
     def summary(self) -> str:
         def pct(a):
@@ -397,9 +398,8 @@ class PolicyDeployment:
             th.start()
         for th in threads:
             th.join(seconds + 30.0)
-        notes = []
         if "control" not in out:
             raise RuntimeError("the control thread did not finish")
         return RealtimeResult(out["control"], out.get("policy"), self.inference_ns[:self.n_inference] / 1e3,
                               self.ages_ns[:self.n_ages] / 1e3, out.get("report"), self.tcp_distance(),
-                              self.bridge.safe_entries, notes)
+                              self.bridge.safe_entries)
