@@ -25,11 +25,11 @@ def solution():
 
 def test_every_check_of_ch06_is_called_in_the_exercises():
     assert exercises.checks_in(nbformat.read(SOL, as_version=4)) == ["ch06.fold_normalizer", "ch06.ema_clip",
-                                                                    "ch06.bridge_timeout"]
+                                                                    "ch06.bridge_timeout", "ch06.observation"]
 
 
 @pytest.mark.parametrize("name,obj", [("ch06.fold_normalizer", "fold_normalizer"), ("ch06.ema_clip", "ema_clip"),
-                                      ("ch06.bridge_timeout", "MiniBridge")])
+                                      ("ch06.bridge_timeout", "MiniBridge"), ("ch06.observation", "reach_observation")])
 def test_solutions_score_full_marks(solution, name, obj):
     for seed in range(3):
         r = run_check(get(name), solution[obj], rng=np.random.default_rng(seed))
@@ -81,3 +81,12 @@ def test_delegating_to_the_library_scores_zero():
     discover()
     r = run_check(get("ch06.fold_normalizer"), fold_normalizer, rng=np.random.default_rng(0))
     assert not r.passed and r.points == 0
+
+
+def test_observation_with_swapped_blocks_scores_zero_naming_the_block(solution):
+    def swapped(q, dq, target, last_action, default_pose, tcp_default, dof_vel_scale):
+        return np.concatenate([np.asarray(dq) * dof_vel_scale, np.asarray(q) - default_pose,
+                               np.asarray(target) - tcp_default, last_action])
+
+    r = run_check(get("ch06.observation"), swapped, rng=np.random.default_rng(0))
+    assert not r.passed and r.points == 0 and "entries 0..5 should be q - default_pose" in r.message

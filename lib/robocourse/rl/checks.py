@@ -210,3 +210,50 @@ def check_bridge_timeout(inputs, outputs):
                       + (" (hold the position measured when the timeout fired)" if want_mode == "hold" else ""))
     return f.done(f"dimension check, {inputs['timeout']} s timeout, hold and recovery right over "
                   f"{len(inputs['events'])} events")
+
+
+# --- exercise 4: the observation layout the policy was trained on ---------------------------------------------
+
+
+def _obs_inputs(rng):
+    cases = []
+    for _ in range(5):
+        cases.append({"q": rng.uniform(-3, 3, 6).tolist(), "dq": rng.normal(0, 2, 6).tolist(),
+                      "target": rng.uniform(-0.8, 0.8, 3).tolist(), "last_action": rng.uniform(-1, 1, 6).tolist(),
+                      "default_pose": rng.uniform(-2, 2, 6).tolist(), "tcp_default": rng.uniform(-0.6, 0.6, 3).tolist(),
+                      "dof_vel_scale": float(rng.choice([0.05, 0.1]))})
+    return cases
+
+
+def _obs_probe(inputs, reach_observation):
+    return [call(reach_observation, *(np.array(c[k]) if isinstance(c[k], list) else c[k]
+                                      for k in ("q", "dq", "target", "last_action", "default_pose", "tcp_default",
+                                                "dof_vel_scale"))) for c in inputs]
+
+
+@register("ch06.observation", weight=2, uses=("reach_observation",), probe=_obs_probe, inputs=_obs_inputs,
+          references=("robocourse.rl.envs:ArmReachEnv", "robocourse.bridge.deployment:PolicyDeployment"))
+def check_observation(inputs, outputs):
+    """reach_observation(...) -> the 21 numbers in the reach task's order."""
+    f = Failures()
+    for c, got in zip(inputs, outputs, strict=True):
+        if "raised" in got:
+            f.add(f"raised {got['raised']}: {got['message']}")
+            continue
+        try:
+            obs = np.asarray(got["value"], dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            f.add(f"return 21 numbers; got {got.get('type')}")
+            continue
+        ref = np.concatenate([np.subtract(c["q"], c["default_pose"]), np.multiply(c["dq"], c["dof_vel_scale"]),
+                              np.subtract(c["target"], c["tcp_default"]), c["last_action"]])
+        if obs.shape != ref.shape:
+            f.add(f"{obs.size} numbers; the policy takes 21 (6 + 6 + 3 + 6)")
+            continue
+        names = ("q - default_pose", "dq * dof_vel_scale", "target - tcp_default", "last_action")
+        for name, sl in zip(names, (slice(0, 6), slice(6, 12), slice(12, 15), slice(15, 21))):
+            if not np.allclose(obs[sl], ref[sl], atol=1e-12):
+                f.add(f"entries {sl.start}..{sl.stop - 1} should be {name}")
+        if f.messages:
+            break
+    return f.done(f"the layout matches the training env on {len(inputs)} states")
