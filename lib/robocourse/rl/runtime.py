@@ -42,8 +42,8 @@ class PolicyRuntime:
                              "(check the observation layout against the training env)")
         self._in[0] = obs.reshape(-1)
         total = float(self._in.sum())
-        if total - total != 0.0:
-            bad = np.flatnonzero(~np.isfinite(self._in[0])).tolist()
+        bad = np.flatnonzero(~np.isfinite(self._in[0])).tolist() if total - total != 0.0 else None
+        if bad:  # (a sum that overflowed on large finite values leaves bad empty: run)
             raise ValueError(f"observation has non-finite values at indices {bad}: refusing to run the policy "
                              "(a sensor failed; hold the last command or enter the safe mode)")
         self.calls += 1
