@@ -104,8 +104,8 @@ def check_ema_clip(inputs, outputs):
         for k, (a, got) in enumerate(zip(inputs["actions"], seq)):
             x = default + inputs["scale"] * np.asarray(a)
             y = alpha * y + (1 - alpha) * x
-            target = np.clip(y, lower, upper)
-            n = int(np.count_nonzero(target != y))
+            want = np.clip(y, lower, upper)
+            n = int(np.count_nonzero(want != y))
             if "raised" in got:
                 f.add(f"alpha {alpha}, step {k}: raised {got['raised']}: {got['message']}")
                 break
@@ -120,7 +120,7 @@ def check_ema_clip(inputs, outputs):
                       "y = alpha * y_prev + (1 - alpha) * (default + scale * action), alpha weighs the previous "
                       "value; filter the unclipped value and clip only the target")
                 break
-            if not np.allclose(gt, target, atol=1e-9):
+            if not np.allclose(gt, want, atol=1e-9):
                 f.add(f"alpha {alpha}, step {k}: target wrong: clip y to [lower, upper] per joint")
                 break
             if gn != n:
@@ -197,16 +197,16 @@ def check_bridge_timeout(inputs, outputs):
                 f.add(f"{what} raised {got['raised']}: {got['message']}")
                 continue
             try:
-                mode, targets = got["value"]
-                targets = np.asarray(targets, dtype=float)
+                mode, got_targets = got["value"]
+                got_targets = np.asarray(got_targets, dtype=float)
             except (TypeError, ValueError, KeyError):
                 f.add(f"{what}: return (mode, targets); got {got.get('type')}")
                 continue
             if mode != want_mode:
                 f.add(f"{what}: mode {mode!r}, expected {want_mode!r} (timeout {inputs['timeout']} s; hold until a "
                       "target arrives after entering the safe mode)")
-            elif targets.shape != cmd.targets.shape or not np.allclose(targets, cmd.targets):
-                f.add(f"{what}: targets {np.round(targets, 3).tolist()}, expected {np.round(cmd.targets, 3).tolist()}"
+            elif got_targets.shape != cmd.targets.shape or not np.allclose(got_targets, cmd.targets):
+                f.add(f"{what}: targets {np.round(got_targets, 3).tolist()}, expected {np.round(cmd.targets, 3).tolist()}"
                       + (" (hold the position measured when the timeout fired)" if want_mode == "hold" else ""))
     return f.done(f"dimension check, {inputs['timeout']} s timeout, hold and recovery right over "
                   f"{len(inputs['events'])} events")
