@@ -156,14 +156,101 @@ def test_pendulum_plant_has_the_unstable_pole():
     assert max(np.real(G.poles())) == pytest.approx(analysis.growth_rate())
 
 
-def test_jitter_replay_sustained_delay_topples_a_spike_does_not():
+def test_jitter_settled_start_with_noise_and_perfect_timing_never_falls():
     from robocourse.pendulum import jitter
 
-    lat = {"2 ms": np.full(10, 2e6), "4 ms": np.full(10, 4e6), "spike": np.r_[np.zeros(499), 20e6]}
-    rows = {r["latencies"]: r for r in jitter.replay(lat, duration=1.0)}
-    assert rows["2 ms"]["delay_margin_ms"] == pytest.approx(3.37, abs=0.02)
-    assert not rows["2 ms"]["fell"] and rows["4 ms"]["fell"]
-    assert not rows["spike"]["fell"] and rows["spike"]["max_ms"] == 20.0
-    assert "FELL at" in jitter.format_rows(list(rows.values()))
-    with pytest.raises(ValueError, match="empty"):
-        jitter.replay({"none": []})
+    r = jitter.trials(np.zeros((6, 400)), seeds=range(6), duration=0.4, substeps=5)
+    assert r.falls == 0 and r.n == 6
+    assert 0 < r.max_error_after_settle.max() < 1e-3  # the noise moves it, a little
+
+
+def test_jitter_sustained_delay_over_margin_topples_a_short_stall_does_not():
+    from robocourse.pendulum import analysis, jitter
+
+    p, K = jitter.fast_design()
+    dm = analysis.delay_margin(K, p)
+    assert dm == pytest.approx(3.37e-3, abs=2e-5)
+    n = 700
+    stretch = np.stack([jitter.stretch_trace(n, 100, 400, 2 * dm * 1e9)] * 3)
+    spike = np.stack([jitter.spike_trace(n, 100, 30e6)] * 3)
+    r = jitter.trials(np.vstack([stretch, spike]), seeds=range(6), duration=0.7, substeps=5)
+    assert r.fell.tolist() == [True, True, True, False, False, False]
+    assert np.all(r.fell_at[:3] > 0.1)  # during the stretch, not in a start-up transient
+
+
+def test_jitter_trials_are_reproducible_per_seed():
+    from robocourse.pendulum import jitter
+
+    lat = np.stack([jitter.stretch_trace(300, 50, 100, 5e6)] * 2)
+    a = jitter.trials(lat, seeds=[7, 8], duration=0.3, substeps=4)
+    b = jitter.trials(lat, seeds=[7, 8], duration=0.3, substeps=4)
+    assert np.array_equal(a.max_error_after_settle, b.max_error_after_settle)
+    assert a.max_error_after_settle[0] != a.max_error_after_settle[1]
+
+
+def test_wilson_interval_matches_the_formula():
+    from robocourse.pendulum.jitter import wilson
+
+    lo, hi = wilson(0, 10)
+    assert lo == 0.0 and hi == pytest.approx(0.2775, abs=1e-4)
+    lo, hi = wilson(5, 10)
+    assert (lo, hi) == (pytest.approx(0.2366, abs=1e-4), pytest.approx(0.7634, abs=1e-4))
+    with pytest.raises(ValueError, match="0 <= k <= n"):
+        wilson(3, 2)
+
+
+def test_windows_keep_measured_order_and_tile_short_traces():
+    from robocourse.pendulum.jitter import windows
+
+    w = windows(np.arange(10) * 1000, n=25, count=4, rng=np.random.default_rng(0))
+    assert w.shape == (4, 25)
+    steps = np.diff(w, axis=1)
+    assert set(np.unique(steps)) <= {1000.0, -9000.0}  # consecutive samples, wrapping at the trace's end
+
+
+@pytest.mark.parametrize("kwargs,fragment", [
+    ({"latencies_ns": np.zeros((2, 100)), "seeds": [1]}, "one seed per trial: 2 traces but 1 seeds"),
+    ({"latencies_ns": np.zeros((1, 50)), "seeds": [1]}, "needs 100: pass longer traces"),
+    ({"latencies_ns": -np.ones((1, 100)), "seeds": [1]}, "finite and >= 0"),
+    ({"latencies_ns": np.zeros((1, 100)), "seeds": [1], "substeps": 0}, "substeps=0"),
+])
+def test_jitter_trials_refuse_bad_input(kwargs, fragment):
+    from robocourse.pendulum import jitter
+
+    with pytest.raises(ValueError, match=fragment):
+        jitter.trials(duration=0.1, **kwargs)
+
+
+@pytest.mark.parametrize("kwargs,fragment", [
+    ({"period_s": -0.001}, r"SeedPID\(period_s=-0.001\): the controller period is a positive"),
+    ({"period_s": float("inf")}, "positive, finite"),
+    ({"period_s": 0.001, "p": float("nan")}, r"SeedPID\(p=nan\)"),
+])
+def test_seed_pid_refuses_bad_values_with_the_rule(kwargs, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        SeedPID(**kwargs)
+
+
+@pytest.mark.parametrize("kwargs,fragment", [
+    ({"Q": np.eye(3)}, r"Q with shape \(3, 3\).*has 4 entries, so Q is 4x4"),
+    ({"Q": -np.eye(4)}, "positive semi-definite"),
+    ({"Q": np.triu(np.ones((4, 4)))}, "symmetric"),
+    ({"R": 0}, r"R=0.0\): the cart-pole has one input, so R is one positive, finite number"),
+    ({"R": -1.0}, "one positive, finite number"),
+    ({"R": [[1, 0], [0, 1]]}, "one positive"),
+])
+def test_lqr_gain_refuses_bad_weights_before_calling_python_control(kwargs, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        cartpole.lqr_gain(**kwargs)
+
+
+@pytest.mark.parametrize("kwargs,fragment", [
+    ({"K": [1, 2, 3]}, r"K=\[1, 2, 3\]: need 4 finite numbers, one per state"),
+    ({"K": [1, 2, 3, float("nan")]}, "need 4 finite numbers"),
+    ({"x0": (0, 0, 3.0)}, "x0=.*need 4 finite numbers"),
+    ({"duration": -1.0}, r"simulate\(duration=-1.0\): a positive, finite number of seconds"),
+    ({"period": 0.0}, r"simulate\(period=0.0\)"),
+])
+def test_simulate_refuses_bad_arguments_with_the_rule(kwargs, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        cartpole.simulate(**kwargs)

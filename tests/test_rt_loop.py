@@ -138,3 +138,9 @@ def test_bad_arguments():
         Hybrid(spin_ns=-1)
     with pytest.raises(ValueError, match="callback must be callable"):
         PeriodicLoop(1_000_000, 10).run(42)
+
+
+def test_default_wait_is_sleep_and_the_stats_carry_its_name():
+    r = PeriodicLoop(1_000_000, 5, clock=FakeClock(), pagefaults=False).run()
+    assert r.strategy == "sleep" and r.stats().wait == "sleep"
+    assert r.stats().format().splitlines()[0].startswith("Wait strategy: sleep")

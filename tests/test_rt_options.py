@@ -81,3 +81,8 @@ def test_every_bad_value_is_a_clear_usage_error(argv, fragment):
         parse_rttest_args(argv)
     assert fragment in str(info.value)
     assert isinstance(info.value, ValueError)
+
+
+def test_default_wait_is_rttests_sleep():
+    assert parse_rttest_args([]).wait == "sleep"
+    assert parse_rttest_args(["--wait", "hybrid"]).wait == "hybrid"

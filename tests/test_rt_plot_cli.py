@@ -41,6 +41,20 @@ def test_cli_rttest_runs_prints_block_and_writes_file(tmp_path, capsys):
     assert (data.latency >= 0).all()
 
 
+def test_cli_rttest_sleeps_like_rttest_by_default_and_says_so(capsys):
+    assert main(["rttest", "-i", "50", "-u", "1ms", "-d", "1mb"]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    i = lines.index("rttest statistics:")
+    assert lines[i - 1] == "Wait strategy: sleep (clock_nanosleep to each absolute deadline, as rttest does)"
+
+
+def test_cli_rttest_hybrid_is_named_in_the_block(capsys):
+    assert main(["rttest", "-i", "20", "-u", "1ms", "-d", "1mb", "--wait", "hybrid", "--spin", "100us"]) == 0
+    out = capsys.readouterr().out
+    assert "Wait strategy: hybrid(100 us spin): sleeps, then busy-waits up to the deadline (rttest only sleeps" in out
+
+
 @pytest.mark.parametrize("argv,fragment", [
     (["rttest", "-u", "fast"], "robocourse rttest: error: -u 'fast': not a duration"),
     (["rttest", "-s", "idle"], "must be fifo or rr"),
@@ -59,3 +73,14 @@ def test_cli_plot(tmp_path, capsys):
         "p_latency.png", "p_latency_hist.png", "p_majflt.png", "p_minflt.png"]
     assert main(["rttest-plot", str(tmp_path / "missing.txt")]) == 2
     assert "no such results file" in capsys.readouterr().err
+
+
+def test_log_bins_span_the_data_and_pile_the_floor():
+    from robocourse.rt.plot import log_bins
+
+    edges = log_bins([np.array([0.02, 1.0, 50.0]), np.array([4000.0])], bins=40, floor=0.1)
+    assert len(edges) == 41 and edges[0] == 0.1 and edges[-1] == pytest.approx(4000.0, rel=1e-3)
+    ratios = edges[1:] / edges[:-1]
+    assert np.allclose(ratios, ratios[0])  # every decade gets the same width
+    with pytest.raises(ValueError, match="positive floor"):
+        log_bins([np.array([1.0])], floor=0)

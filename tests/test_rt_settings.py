@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+from robocourse.rt import settings
+
 LIB = str(Path(__file__).resolve().parents[1] / "lib")
 
 UNPRIVILEGED = textwrap.dedent("""
@@ -148,3 +150,42 @@ def test_heap_prefault_takes_the_growing_heaps_faults_out_of_the_loop():
     assert ok == "True"
     assert int(before) >= 1000  # 100 x 64 KiB of new heap = 1600 pages first touched in the loop
     assert int(after) <= 50  # the same allocations now reuse prefaulted, still-mapped heap
+
+
+@pytest.mark.parametrize("bad", ["64mb", 1.5, -1, True])
+def test_prefault_heap_refuses_a_size_that_is_not_whole_bytes(bad):
+    with pytest.raises(ValueError, match=r"prefault_heap\(size=.*\): the size is a whole number of bytes >= 0"):
+        settings.prefault_heap(bad)
+
+
+def test_prefault_report_never_claims_faulting_in_memory_that_took_no_fault():
+    text = settings._prefault_text(64 << 20, 256 << 10, 0, True, True)
+    assert text.startswith("touched 256 KiB of heap (asked for up to 65536 KiB), 0 page faults taken now: "
+                           "the first chunk took no new fault")
+    assert "faulted in" not in text
+    full = settings._prefault_text(8 << 20, 8 << 20, 2048, False, False)
+    assert full.startswith("touched 8192 KiB of heap (asked for up to 8192 KiB), 2048 page faults taken now: all of it")
+
+
+def test_locked_allocation_fails_at_the_memlock_limit_like_bad_alloc():
+    import re
+
+    from robocourse.rt.permissions import locked_allocation_demo
+
+    out = locked_allocation_demo(cap_mb=64).stdout
+    m = re.search(r"ulimit -l \(RLIMIT_MEMLOCK\): (\d+) kB", out)
+    if m is None or "mlockall(MCL_FUTURE) failed" in out:
+        pytest.skip(f"no finite memlock limit to run into here: {out!r}")
+    limit_mib = int(m.group(1)) / 1024
+    if limit_mib >= 64:
+        assert "allocated 64 MiB without an error" in out
+    else:
+        got = int(re.search(r"MemoryError after (\d+) MiB", out).group(1))
+        assert got <= limit_mib and "std::bad_alloc" in out
+
+
+def test_locked_allocation_demo_refuses_a_bad_cap():
+    from robocourse.rt.permissions import locked_allocation_demo
+
+    with pytest.raises(ValueError, match="cap_mb=0: a positive number of MiB"):
+        locked_allocation_demo(cap_mb=0)

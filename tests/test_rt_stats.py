@@ -77,3 +77,19 @@ def test_histogram_counts_every_sample():
     assert counts.sum() == 1000 and len(edges) == 101 and (counts == 10).all()
     with pytest.raises(ValueError, match="bins"):
         histogram(lat, bins=0)
+
+
+@pytest.mark.parametrize("bad,fragment", [
+    ([1.5, 2.7], r"latency_ns\[0\] is 1.5: rttest's samples are whole ns and would be truncated"),
+    ([100.0, float("nan"), 3.0], r"latency_ns\[1\] is nan: rttest's samples are whole, finite ns"),
+    ([1, 2, float("inf")], r"latency_ns\[2\] is inf"),
+    ([True, False], "whole numbers"),
+])
+def test_non_integer_or_nan_latencies_are_refused_not_truncated(bad, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        compute_stats(bad)
+
+
+def test_whole_valued_floats_are_accepted_exactly():
+    s = compute_stats([1000.0, 3000.0])
+    assert (s.min_latency, s.max_latency, s.mean_latency) == (1000, 3000, 2000.0)

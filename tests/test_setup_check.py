@@ -65,3 +65,71 @@ def test_unprivileged_user_gets_the_seed_messages_and_fixes():
 def test_doctor_command_runs():
     proc = subprocess.run([sys.executable, "-m", "robocourse.cli", "doctor", "--no-try"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0 and "RLIMIT_MEMLOCK" in proc.stdout
+
+
+def test_shipped_pins_equal_requirements_txt(root):
+    """doctor needs no requirements.txt, so the package ships the pins; they must not drift apart."""
+    from robocourse.setup_check.pins import PINS
+
+    from_file = setup_check.pinned_versions(root / "requirements.txt")
+    shipped = setup_check.shipped_pins()
+    assert shipped == {name: from_file[name] for name in shipped}
+    assert {name for name, _, _ in PINS} == set(setup_check.PACKAGES) - {"robocourse"}
+
+
+def test_missing_requirements_file_is_an_error_not_any_version_is_fine(tmp_path):
+    with pytest.raises(FileNotFoundError, match="no such requirements file"):
+        setup_check.pinned_versions(tmp_path / "requirements.txt")
+
+
+def test_doctor_flags_a_version_other_than_the_shipped_pin(monkeypatch):
+    from importlib import metadata
+
+    real = metadata.version
+    monkeypatch.setattr(metadata, "version", lambda name: "0.0.1" if name == "numpy" else real(name))
+    found = {f.name: f for f in setup_check.versions()}
+    assert not found["numpy"].ok and found["numpy"].value == f"0.0.1 (course pins {setup_check.shipped_pins()['numpy']})"
+    found = {f.name: f for f in setup_check.versions(pins={})}  # a package without a pin is never "ok"
+    assert not found["scipy"].ok and "no pin known" in found["scipy"].value
+
+
+def test_setcap_advice_never_targets_a_symlinked_base_interpreter(monkeypatch, tmp_path):
+    base = tmp_path / "base" / "python3.11"
+    base.parent.mkdir()
+    base.write_text("")
+    link = tmp_path / "venv" / "bin" / "python3"
+    link.parent.mkdir(parents=True)
+    link.symlink_to(base)
+    monkeypatch.setattr(sys, "executable", str(link))
+    monkeypatch.setattr(sys, "prefix", str(tmp_path / "venv"))
+    text = capabilities.rtprio_fix()
+    assert text.splitlines()[0].startswith("add to /etc/security/limits.conf:")  # limits.conf first
+    assert f"never setcap\n  {base}\nitself: that grants it to every Python script on the machine" in text
+    assert "python3 -m venv --copies .venv-rt" in text and "sudo setcap cap_sys_nice+ep .venv-rt/bin/python3" in text
+    assert f"setcap cap_sys_nice+ep {base}" not in text and f"setcap cap_sys_nice+ep {link}" not in text
+
+
+def test_setcap_advice_on_a_copied_venv_interpreter_names_it(monkeypatch, tmp_path):
+    copy = tmp_path / "venv-rt" / "bin" / "python3"
+    copy.parent.mkdir(parents=True)
+    copy.write_text("")
+    monkeypatch.setattr(sys, "executable", str(copy))
+    monkeypatch.setattr(sys, "prefix", str(tmp_path / "venv-rt"))
+    assert capabilities.memlock_fix().endswith(f"copied venv interpreter only:\n  sudo setcap cap_ipc_lock+ep {copy}")
+
+
+def test_without_linux_scheduling_the_report_and_the_demo_say_so_and_carry_on(monkeypatch):
+    """What a macOS student gets: no sched_* calls and no RLIMIT_RTPRIO; nothing crashes."""
+    import resource
+
+    from robocourse.pendulum import demo
+
+    for name in ("sched_setscheduler", "sched_getscheduler", "sched_getparam", "sched_setaffinity", "sched_getaffinity"):
+        monkeypatch.delattr(os, name, raising=False)
+    monkeypatch.delattr(resource, "RLIMIT_RTPRIO", raising=False)
+    found = {f.name: f for f in capabilities.probe(try_calls=True)}
+    assert not found["real-time scheduling"].ok and "not available on" in found["real-time scheduling"].value
+    assert not found["SCHED_FIFO (tried)"].ok and "not Linux" in found["SCHED_FIFO (tried)"].value
+    run = demo.run_realtime(30, quiet=True, lock_memory=False)
+    assert run.loop.iterations == 30 and not run.settings[0].ok
+    assert run.settings[0].detail == "this OS has no sched_setscheduler"

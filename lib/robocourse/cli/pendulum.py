@@ -1,8 +1,10 @@
 """``robocourse pendulum demo``: the seed's pendulum_demo (+ teleop, + logger) in one command.
 
-``robocourse pendulum demo [-i N] [-u 1ms] [-f FILE] [-t PRIO] [-s rr|fifo] [--setpoint RAD] [--log]``
-prints what pendulum_demo prints: the permission messages, the rttest statistics block and
-the two "received N messages" lines; -f writes rttest's results file for ``rttest-plot``.
+``robocourse pendulum demo [-i N] [-u 1ms] [-f FILE] [-t PRIO] [-s rr|fifo] [--setpoint RAD] [--log]
+[--wait sleep|hybrid|spin]`` prints what pendulum_demo prints: the permission messages, the
+rttest statistics block (preceded by the wait strategy that ran: ``sleep`` unless told
+otherwise, as the seed's rttest loop) and the two "received N messages" lines; -f writes
+rttest's results file for ``rttest-plot``.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ def register(sub):
     psub = p.add_subparsers(dest="pendulum_command", metavar="ACTION")
     d = psub.add_parser("demo", help="run pendulum_demo: motor + PID controller in rttest's loop",
                         description="Options as the seed (rttest's -i -u -t -s -m -d -f) plus --setpoint RAD, "
-                                    "--log and --wait sleep|hybrid|spin.", prefix_chars="+", add_help=False)
+                                    "--log and --wait sleep|hybrid|spin (default sleep, as the seed).", prefix_chars="+", add_help=False)
     d.add_argument("argv", nargs=argparse.REMAINDER)
     d.set_defaults(func=run_demo)
     p.set_defaults(func=lambda args: p.print_help() or 2)

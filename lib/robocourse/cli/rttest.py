@@ -3,7 +3,9 @@
 ``rttest`` runs an instrumented empty loop the way a program linked against rttest does:
 lock memory and prefault (-m stack, -d heap), set the policy and priority (-s, -t), spin
 -i iterations at period -u, print rttest's statistics block, write -f. Missing privileges
-print the seed's messages with the fix, and the run carries on.
+print the seed's messages with the fix, and the run carries on. It sleeps to each deadline as
+rttest does; ``--wait hybrid`` (sleep, then spin the last ``--spin``) or ``--wait spin`` must be
+asked for, and the statistics block names the strategy that ran.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ def register(sub):
         description="Run an instrumented empty loop and print rttest's statistics. Options as rttest: "
                     "-i ITERATIONS (<=0: until Ctrl-C), -u PERIOD (ns/us/ms/s, bare = us), -t PRIORITY, "
                     "-s fifo|rr, -m STACK and -d HEAP prefault sizes (gb/mb/kb/b, bare = MB), -f FILE; "
-                    "robocourse adds --wait sleep|hybrid|spin, --spin DURATION, --cpu N.",
+                    "robocourse adds --wait sleep|hybrid|spin (default sleep, as rttest), --spin DURATION, --cpu N.",
         prefix_chars="+", add_help=False)
     p.add_argument("rttest_args", nargs=argparse.REMAINDER)
     p.set_defaults(func=run_rttest)
@@ -64,7 +66,8 @@ def run_rttest(args) -> int:
         print("  -d S      heap prefault cap, same units (rttest: 8gb; robocourse uses 64mb unless -d is given;")
         print("            never more than a quarter of MemAvailable)")
         print("  -f FILE   write rttest's results file")
-        print("  --wait W  sleep, hybrid or spin (default hybrid); --spin T spin window (default 200us)")
+        print("  --wait W  sleep (default: rttest's clock_nanosleep), hybrid (sleep, then spin the last --spin)")
+        print("            or spin (busy-wait: a whole core); --spin T spin window of hybrid (default 200us)")
         print("  --cpu N   pin the loop to CPU N")
         return 0
     try:

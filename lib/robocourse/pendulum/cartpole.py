@@ -73,10 +73,54 @@ def lqr_gain(Q=None, R=0.01, p: CartPoleParams | None = None) -> np.ndarray:
     """LQR gain K (u = -K (x - ref)) from python-control's ``lqr`` on the linearized model."""
     import control
 
+    Q = np.eye(4) if Q is None else _weight_matrix(Q)
+    R = _input_weight(R)
     A, B = linearize(p)
-    Q = np.eye(4) if Q is None else np.asarray(Q, dtype=float)
-    K, _, _ = control.lqr(A, B, Q, np.atleast_2d(R))
+    K, _, _ = control.lqr(A, B, Q, R)
     return np.asarray(K).reshape(4)
+
+
+def _weight_matrix(Q) -> np.ndarray:
+    """Q as a 4x4 symmetric positive semi-definite float matrix, or a ValueError saying why not."""
+    try:
+        Q = np.asarray(Q, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"lqr_gain(Q={Q!r}): Q is a 4x4 matrix of numbers, e.g. np.eye(4)") from None
+    if Q.shape != (4, 4):
+        raise ValueError(f"lqr_gain(Q with shape {Q.shape}): the cart-pole state [x, x_dot, theta, theta_dot] "
+                         "has 4 entries, so Q is 4x4, e.g. np.diag([1, 1, 10, 1])")
+    if not np.all(np.isfinite(Q)):
+        raise ValueError("lqr_gain(Q): Q holds NaN or inf; use finite weights, e.g. np.eye(4)")
+    if not np.allclose(Q, Q.T):
+        raise ValueError("lqr_gain(Q): Q must be symmetric (Q == Q.T); use (Q + Q.T) / 2 or a diagonal matrix")
+    if np.linalg.eigvalsh(Q).min() < -1e-12 * max(1.0, np.abs(Q).max()):
+        raise ValueError(f"lqr_gain(Q): Q must be positive semi-definite (eigenvalues {np.linalg.eigvalsh(Q)}); "
+                         "a cost weights errors with non-negative values, e.g. np.diag([1, 1, 10, 1])")
+    return Q
+
+
+def _input_weight(R) -> np.ndarray:
+    """R as a 1x1 positive float matrix (one input: the force), or a ValueError saying why not."""
+    try:
+        R = np.atleast_2d(np.asarray(R, dtype=float))
+    except (TypeError, ValueError):
+        raise ValueError(f"lqr_gain(R={R!r}): R is one positive number (the force's weight), e.g. R=0.01") from None
+    if R.shape != (1, 1) or not np.isfinite(R[0, 0]) or R[0, 0] <= 0:
+        raise ValueError(f"lqr_gain(R={R.tolist() if R.size > 1 else R.item()!r}): the cart-pole has one input, "
+                         "so R is one positive, finite number (R = 0 would make force free), e.g. R=0.01")
+    return R
+
+
+def _vector4(value, what: str, example: str) -> np.ndarray:
+    """A length-4 finite float vector, or a ValueError naming the value, the rule and an example."""
+    try:
+        v = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what}={value!r}: need 4 numbers, e.g. {what}={example}") from None
+    if v.size != 4 or not np.all(np.isfinite(v)):
+        raise ValueError(f"{what}={value!r}: need 4 finite numbers, one per state [x, x_dot, theta, theta_dot], "
+                         f"e.g. {what}={example}")
+    return v
 
 
 def closed_loop_poles(K, p: CartPoleParams | None = None) -> np.ndarray:
@@ -118,10 +162,17 @@ def simulate(K=DEMO_K, x0=(0.0, 0.0, math.pi - 0.2, 0.0), duration=5.0, period=0
     ``fall_angle`` of upright.
     """
     p = p or CartPoleParams()
-    K = np.asarray(K, dtype=float).reshape(4)
-    n = int(round(duration / period)) if period > 0 else 0
+    K = _vector4(K, "K", "DEMO_K")
+    x0 = _vector4(x0, "x0", "(0, 0, math.pi - 0.2, 0)")
+    ref = _vector4(ref, "ref", "UPRIGHT")
+    for name, value in (("duration", duration), ("period", period), ("fall_angle", fall_angle)):
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) or not (
+                math.isfinite(value) and value > 0):
+            raise ValueError(f"simulate({name}={value!r}): a positive, finite number of "
+                             f"{'radians' if name == 'fall_angle' else 'seconds'}, e.g. duration=5.0, period=0.001")
+    n = int(round(duration / period))
     if n < 1:
-        raise ValueError(f"need period > 0 and duration >= period, got period={period}, duration={duration}")
+        raise ValueError(f"need duration >= period, got period={period}, duration={duration}")
     lat = np.zeros(1) if latencies_ns is None else np.asarray(latencies_ns, dtype=float).reshape(-1) * 1e-9
     if lat.size == 0 or not np.all(np.isfinite(lat)) or np.any(lat < -period):
         raise ValueError("latencies_ns must be finite ns values, none earlier than one period")

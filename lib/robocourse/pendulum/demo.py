@@ -299,6 +299,12 @@ def run_simulated(seconds: float = 1.0, setpoint: float | None = None, initial_p
 
     ``teleop_first`` publishes the setpoint before the controller exists (TRANSIENT_LOCAL).
     """
+    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not (math.isfinite(seconds) and seconds > 0):
+        raise ValueError(f"run_simulated(seconds={seconds!r}): spin for a positive, finite number of seconds "
+                         "of simulated time, e.g. run_simulated(2.0)")
+    _check_angle("initial_position", initial_position)
+    if setpoint is not None:
+        _check_angle("setpoint", setpoint)
     ctx = Context(use_sim_time=True)
     if setpoint is not None and teleop_first:
         teleop(ctx, setpoint, verbose=False)
@@ -329,6 +335,12 @@ def run_simulated(seconds: float = 1.0, setpoint: float | None = None, initial_p
 
 
 
+def _check_angle(name: str, value) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ValueError(f"{name}={value!r}: an angle in radians from the ground, finite; pi/2 is upright "
+                         f"(the seed's convention), e.g. {name}=math.pi / 2")
+
+
 @dataclass
 class RealtimeRun:
     loop: object  # robocourse.rt LoopResult
@@ -354,8 +366,26 @@ def run_realtime(iterations: int = 1000, period_ns: int = 1_000_000, priority: i
     Permission failures print the seed's messages and the run carries on. The calling thread's
     scheduling and memory settings are restored afterwards (a notebook kernel keeps working).
     """
+    from robocourse.rt import WaitStrategy
     from robocourse.rt import settings as rts
 
+    for name, value, rule in (("iterations", iterations, "at least 1 (the demo reports counts at the end), e.g. 5000"),
+                              ("period_ns", period_ns, "a positive number of ns, e.g. 1_000_000 for 1 kHz")):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise ValueError(f"run_realtime({name}={value!r}): {rule}")
+    if isinstance(priority, bool) or not isinstance(priority, int) or not 1 <= priority <= 98:
+        raise ValueError(f"run_realtime(priority={priority!r}): a real-time priority 1..98 (99 belongs to the "
+                         "kernel's watchdogs), e.g. 98 as the seed")
+    if str(policy).lower() not in ("rr", "fifo"):
+        raise ValueError(f"run_realtime(policy={policy!r}): 'rr' (the seed's SCHED_RR) or 'fifo'")
+    for name, value in (("stack_size", stack_size), ("heap_size", heap_size)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise ValueError(f"run_realtime({name}={value!r}): a whole number of bytes >= 0, e.g. 64 << 20")
+    if wait is not None and not isinstance(wait, WaitStrategy):
+        raise ValueError(f"run_realtime(wait={wait!r}): Sleep() (the default, as rttest), Hybrid(spin_ns=...) or Spin()")
+    _check_angle("initial_position", initial_position)
+    if setpoint is not None:
+        _check_angle("setpoint", setpoint)
     ctx = Context()
     if setpoint is not None or log:
         teleop(ctx, setpoint, verbose=not quiet)  # published before the controller exists
@@ -366,9 +396,7 @@ def run_realtime(iterations: int = 1000, period_ns: int = 1_000_000, priority: i
     rtt = RttExecutor(ctx, graph.statistics)
     for node in (graph.motor_node, graph.controller_node) + ((logger.node,) if logger else ()):
         rtt.add_node(node)
-    import os
-
-    saved = (os.sched_getscheduler(0), os.sched_getparam(0))
+    saved = rts.current_scheduling()  # ("unknown", 0) off Linux: nothing to restore there
     reports = []
     motor.start()
     try:
@@ -384,9 +412,6 @@ def run_realtime(iterations: int = 1000, period_ns: int = 1_000_000, priority: i
         motor.set_done()
         if lock_memory:
             rts.unlock_memory()
-        try:
-            os.sched_setscheduler(0, *saved)
-        except OSError:
-            pass
+        rts.reset_scheduling(*saved)
         ctx.try_shutdown()
     return RealtimeRun(loop, graph, reports, logger)

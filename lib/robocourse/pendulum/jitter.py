@@ -1,22 +1,33 @@
-"""What measured wake-up latency does to balance: replay rt measurements into the cart-pole.
+"""What wake-up latency does to balance: many seeded trials of a stiff cart-pole loop.
 
 The demo's cart-pole loop is slow (delay margin about 229 ms): no kernel's jitter touches it.
 ``fast_design`` is the same cart-pole with a 0.2 m pole, an idealised actuator (no force limit)
-and an aggressive LQR (Q = diag(1, 1, 1e4, 1), R = 1e-5): gain crossover about 410 rad/s and a
-delay margin of about 3.4 ms, the regime of stiff balance and force loops, where a sleeping
-Python loop's tail matters. ``replay`` feeds latency samples (ns, in measured order) into the
-nonlinear simulation, scaled by factors, and reports when the pole falls next to the delay
-margin python-control predicts and to the longest stretch of consecutive writes that came
-later than that margin (a loaded core delays many iterations in a row).
+and an aggressive LQR (Q = diag(1, 1, 1e4, 1), R = 1e-5): a delay margin of a few
+milliseconds, the regime of stiff balance and force loops where a loop's tail matters.
+
+``trials`` runs a whole batch of trials at once (numpy over trials, RK4 on a fixed substep):
+each trial starts settled (upright, at rest), has the demo's uniform noise on the pole's
+acceleration drawn from its own seed, and gets its own latency trace (ns per iteration, rttest
+semantics). Timing model as :func:`robocourse.pendulum.cartpole.simulate`: the state is sampled
+at each deadline ``k * period``, the force computed from it is written at
+``max(previous write, k * period + latency[k])`` and holds until the next write. Writes take
+effect at the next substep boundary (``period / substeps``; 50 us by default), which is the
+resolution of the experiment. A trial *falls* when the pole leaves ``fall_angle`` of upright.
+
+The experiment's traces: ``spike_trace`` (one stall of S: the loop wakes S late once, then
+catches up, as chapter 1's catch-up ramps) and ``stretch_trace`` (every write late by ``delay``
+for a stretch of L), and windows of a measured trace (``windows``). ``wilson`` gives the 95 %
+interval of a fall probability from k falls in n trials.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from . import analysis, cartpole
+from . import cartpole
 
 FAST_PARAMS = cartpole.CartPoleParams(length=0.2, max_force=1e9)
 FAST_Q = np.diag([1.0, 1.0, 1e4, 1.0])
@@ -28,54 +39,140 @@ def fast_design() -> tuple[cartpole.CartPoleParams, np.ndarray]:
     return FAST_PARAMS, cartpole.lqr_gain(FAST_Q, FAST_R, FAST_PARAMS)
 
 
-def replay(latencies: dict[str, np.ndarray], scales=(1.0,), K=None, p: cartpole.CartPoleParams | None = None,
-           period: float = 0.001, duration: float = 2.0, x0=(0.0, 0.0, math.pi - 0.01, 0.0)) -> list[dict]:
-    """One row per (distribution, scale): latency figures, whether it fell, worst angle error.
+@dataclass
+class Trials:
+    """Outcome of a batch: one entry per trial."""
 
-    Latencies are replayed in their measured order (bursts stay bursts) and repeated if shorter
-    than the run. Noise is off so rows differ only by timing.
+    fell: np.ndarray  # bool
+    fell_at: np.ndarray  # s, NaN where it did not fall
+    max_error_after_settle: np.ndarray  # rad, |theta - pi| after ``settle`` (to the fall, if it fell)
+
+    @property
+    def n(self) -> int:
+        return int(self.fell.size)
+
+    @property
+    def falls(self) -> int:
+        return int(self.fell.sum())
+
+
+def _check_positive(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not (
+            math.isfinite(value) and value > 0):
+        raise ValueError(f"{name}={value!r}: a positive, finite number")
+    return float(value)
+
+
+def trials(latencies_ns, seeds, K=None, p: cartpole.CartPoleParams | None = None, period: float = 0.001,
+           duration: float = 1.0, settle: float = 0.2, substeps: int = 20, fall_angle: float = 0.5,
+           x0=cartpole.UPRIGHT) -> Trials:
+    """Run one trial per row of ``latencies_ns`` (shape (trials, iterations), ns) with its own noise seed.
+
+    Rows shorter than ``duration / period`` are an error (a trial must have a latency for every
+    iteration). ``seeds`` is one int per trial. Default plant and gain: :func:`fast_design`.
     """
     if p is None and K is None:
         p, K = fast_design()
     p = p or cartpole.CartPoleParams()
-    K = cartpole.DEMO_K if K is None else np.asarray(K, dtype=float)
-    dm = analysis.delay_margin(K, p)
-    rows = []
-    for name, lat in latencies.items():
-        lat = np.asarray(lat, dtype=float).reshape(-1)
-        if lat.size == 0:
-            raise ValueError(f"latency sample {name!r} is empty")
-        for s in scales:
-            scaled = np.clip(lat * s, 0, None)
-            run = cartpole.simulate(K, x0=x0, duration=duration, period=period, latencies_ns=scaled, p=p, seed=None)
-            over = run.delays > dm
-            rows.append({
-                "latencies": name, "scale": float(s),
-                "p50_ms": float(np.percentile(scaled, 50) / 1e6), "p99_ms": float(np.percentile(scaled, 99) / 1e6),
-                "max_ms": float(scaled.max() / 1e6), "delay_margin_ms": dm * 1e3,
-                "over_margin_fraction": float(over.mean()),
-                "longest_over_margin_ms": longest_run(over) * period * 1e3,
-                "fell": run.fell, "fell_at_s": run.fell_at,
-                "max_angle_error_rad": run.max_angle_error,
-            })
-    return rows
+    K = cartpole.DEMO_K if K is None else np.asarray(K, dtype=float).reshape(4)
+    period, duration = _check_positive("period", period), _check_positive("duration", duration)
+    fall_angle = _check_positive("fall_angle", fall_angle)
+    if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
+        raise ValueError(f"substeps={substeps!r}: a positive int (substeps per period), e.g. 20")
+    n = int(round(duration / period))
+    lat = np.atleast_2d(np.asarray(latencies_ns, dtype=float)) * 1e-9
+    seeds = np.asarray(seeds).reshape(-1)
+    if lat.shape[1] < n:
+        raise ValueError(f"latencies_ns has {lat.shape[1]} iterations per trial; {duration} s at {period} s "
+                         f"needs {n}: pass longer traces or a shorter duration")
+    if seeds.size != lat.shape[0]:
+        raise ValueError(f"one seed per trial: {lat.shape[0]} traces but {seeds.size} seeds")
+    if not np.all(np.isfinite(lat)) or np.any(lat < 0):
+        raise ValueError("latencies_ns must be finite and >= 0 (a write never happens before its sample)")
+    T = lat.shape[0]
+    rngs = [np.random.default_rng(int(s)) for s in seeds]
+    # one noise value per period, held over its substeps (the demo draws it once per physics step)
+    noise = np.stack([r.uniform(-p.noise, p.noise, n) for r in rngs]) if p.noise > 0 else None
+    deadlines = np.arange(n) * period
+    writes = np.maximum.accumulate(deadlines[None, :] + lat[:, :n], axis=1)
+    state = np.repeat(np.asarray(x0, dtype=float).reshape(4, 1), T, axis=1)
+    ref = cartpole.UPRIGHT.reshape(4, 1)
+    forces = np.zeros((T, n))
+    applied = np.full(T, -1)
+    rows = np.arange(T)
+    fell_at = np.full(T, np.nan)
+    worst = np.zeros(T)
+    alive = np.ones(T, dtype=bool)
+    h = period / substeps
+    for k in range(n):
+        forces[:, k] = np.clip(-(K @ (state - ref)), -p.max_force, p.max_force)
+        d = noise[:, k] if noise is not None else 0.0
+        for j in range(substeps):
+            t = k * period + j * h
+            while True:  # writes due by now (several at once after a stall: the newest wins)
+                nxt = np.minimum(applied + 1, k)
+                due = (applied < k) & (writes[rows, nxt] <= t + 1e-12)
+                if not due.any():
+                    break
+                applied[due] += 1
+            u = np.where(applied >= 0, forces[rows, np.maximum(applied, 0)], 0.0)
+            state = cartpole.rk4_step(state, u, h, p, d)
+        err = np.abs(state[2] - math.pi)
+        t_end = (k + 1) * period
+        bad = alive & ((err > fall_angle) | ~np.all(np.isfinite(state), axis=0))
+        fell_at[bad] = t_end
+        if t_end > settle:
+            worst = np.where(alive, np.maximum(worst, np.nan_to_num(err, nan=np.inf)), worst)
+        alive &= ~bad
+        if not alive.any():
+            break
+        state[:, ~alive] = ref[:, 0:1]  # park fallen trials upright so they cannot overflow
+    return Trials(~np.isnan(fell_at), fell_at, worst)
 
 
-def longest_run(flags) -> int:
-    """Length of the longest stretch of consecutive True values."""
-    best = cur = 0
-    for f in np.asarray(flags, dtype=bool):
-        cur = cur + 1 if f else 0
-        best = max(best, cur)
-    return best
+def spike_trace(n: int, at: int, stall_ns: float) -> np.ndarray:
+    """All iterations on time except one that wakes ``stall_ns`` late (the loop then catches up)."""
+    lat = np.zeros(n)
+    lat[at] = stall_ns
+    return lat
 
 
-def format_rows(rows: list[dict]) -> str:
-    head = (f"{'latencies':<18}{'scale':>6}{'p50 ms':>8}{'p99 ms':>9}{'max ms':>9}{'DM ms':>7}"
-            f"{'>DM for':>10}  outcome")
-    lines = [head, "-" * len(head)]
-    for r in rows:
-        outcome = f"FELL at {r['fell_at_s']:.2f} s" if r["fell"] else f"balanced (worst {math.degrees(r['max_angle_error_rad']):.2f} deg)"
-        lines.append(f"{r['latencies']:<18}{r['scale']:>6g}{r['p50_ms']:>8.3f}{r['p99_ms']:>9.3f}{r['max_ms']:>9.2f}"
-                     f"{r['delay_margin_ms']:>7.2f}{r['longest_over_margin_ms']:>7.0f} ms  {outcome}")
-    return "\n".join(lines)
+def stretch_trace(n: int, at: int, length: int, delay_ns: float) -> np.ndarray:
+    """Every write of iterations ``at .. at + length - 1`` late by ``delay_ns`` (a loaded core)."""
+    lat = np.zeros(n)
+    lat[at:at + length] = delay_ns
+    return lat
+
+
+def windows(trace_ns, n: int, count: int, rng: np.random.Generator) -> np.ndarray:
+    """``count`` windows of ``n`` consecutive samples from a measured trace, at random starts, in order.
+
+    A trace shorter than ``n`` is repeated (its bursts stay bursts).
+    """
+    trace = np.asarray(trace_ns, dtype=float).reshape(-1)
+    if trace.size == 0:
+        raise ValueError("the measured latency trace is empty")
+    trace = np.clip(trace, 0, None)
+    reps = int(np.ceil((2 * n) / trace.size))
+    tiled = np.tile(trace, reps)
+    starts = rng.integers(0, tiled.size - n + 1, count)
+    return np.stack([tiled[s:s + n] for s in starts])
+
+
+def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """Wilson score interval (95 % by default) for a probability from ``k`` successes in ``n`` trials."""
+    if n <= 0 or not 0 <= k <= n:
+        raise ValueError(f"need 0 <= k <= n and n > 0, got k={k}, n={n}")
+    phat = k / n
+    denom = 1 + z * z / n
+    centre = (phat + z * z / (2 * n)) / denom
+    half = z * math.sqrt(phat * (1 - phat) / n + z * z / (4 * n * n)) / denom
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def first_reaching(xs, falls, n: int, level: float = 0.5):
+    """Smallest x whose fall fraction reaches ``level`` (None if none does), xs sorted ascending."""
+    for x, k in sorted(zip(xs, falls, strict=True)):
+        if k / n >= level:
+            return x
+    return None

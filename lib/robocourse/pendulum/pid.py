@@ -24,7 +24,14 @@ class SeedPID:
 
     def __init__(self, period_s: float, p: float = 1.0, i: float = 0.0, d: float = 0.0, command: float = PI / 2):
         if period_s is None or math.isnan(period_s) or period_s == 0:
-            raise RuntimeError(INVALID_DT)
+            raise RuntimeError(INVALID_DT)  # the seed's own check and text
+        if not (math.isfinite(period_s) and period_s > 0):
+            raise ValueError(f"SeedPID(period_s={period_s!r}): the controller period is a positive, finite "
+                             "number of seconds, e.g. SeedPID(0.00096) for the seed's 960 us")
+        for name, value in (("p", p), ("i", i), ("d", d), ("command", command)):
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value):
+                raise ValueError(f"SeedPID({name}={value!r}): gains and the command are numbers (not NaN), "
+                                 f"e.g. SeedPID(0.001, p=1.0, i=0.0, d=0.0, command=math.pi / 2)")
         self.dt = float(period_s)
         self.p, self.i, self.d, self.command = float(p), float(i), float(d), float(command)
         self.i_term = 0.0

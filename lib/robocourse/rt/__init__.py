@@ -8,6 +8,8 @@
 - ``settings``: scheduling, affinity, mlockall, prefaulting, gc, each with an honest report.
 - ``disturb``: CPU load, allocation storms, gc pressure, fresh memory, logging in the loop.
 - ``cyclictest``: the C reference on the same machine.
+- ``repeat``: interleaved rounds of several settings, medians with their range, worded comparisons.
+- ``inversion``: priority inversion measured (mutex, PI mutex, lock-free hand-off).
 - ``capabilities``: what this machine allows (and how to fix it).
 """
 
@@ -16,10 +18,12 @@ from . import (
     clock,
     cyclictest,
     disturb,
+    inversion,
     loop,
     options,
     permissions,
     plot,
+    repeat,
     results_file,
     settings,
     stats,
@@ -36,8 +40,8 @@ from .stats import RttestStats, compute_stats, format_rttest, histogram
 from .wait import Hybrid, Sleep, Spin, WaitStrategy
 
 __all__ = [
-    "capabilities", "clock", "cyclictest", "disturb", "loop", "options", "permissions", "plot",
-    "results_file", "settings", "stats", "wait",
+    "capabilities", "clock", "cyclictest", "disturb", "inversion", "loop", "options", "permissions", "plot",
+    "repeat", "results_file", "settings", "stats", "wait",
     "STOP", "CyclictestMissing", "FakeClock", "Finding", "Hybrid", "LoopResult", "MonotonicClock",
     "PeriodicLoop", "ResultsData", "RttestOptions", "RttestStats", "RttestUsageError", "SettingReport",
     "Sleep", "Spin", "Tick", "WaitStrategy", "compute_stats", "format_rttest", "histogram",

@@ -48,6 +48,43 @@ def _user() -> str:
         return str(os.geteuid())
 
 
+def interpreter_is_copy() -> bool:
+    """True when this Python is a venv's own copy (``python -m venv --copies``), not a symlink.
+
+    A venv made the default way links ``bin/python`` to the base interpreter; ``setcap`` follows
+    the link and marks the base binary, which every Python script on the machine runs.
+    """
+    exe = sys.executable
+    # os.path answers False where it may not look (an unprivileged child cannot read root's venv)
+    return sys.prefix != sys.base_prefix and os.path.isfile(exe) and not os.path.islink(exe)
+
+
+def setcap_advice(caps: str) -> str:
+    """The capability route, only ever on a copied interpreter (``caps`` e.g. "cap_sys_nice")."""
+    if interpreter_is_copy():
+        return (f"or, without a new login, for this copied venv interpreter only:\n"
+                f"  sudo setcap {caps}+ep {sys.executable}")
+    base = os.path.realpath(sys.executable)
+    return ("or, without a new login, on a COPIED interpreter only; never setcap\n"
+            f"  {base}\n"
+            "itself: that grants it to every Python script on the machine:\n"
+            "  python3 -m venv --copies .venv-rt && .venv-rt/bin/pip install -r requirements.txt -e .\n"
+            f"  sudo setcap {caps}+ep .venv-rt/bin/python3")
+
+
+def rtprio_fix(priority: int = RT_PRIORITY) -> str:
+    """limits.conf first (never 99), then the copied-interpreter setcap route."""
+    return (f"add to /etc/security/limits.conf:  {_user()} - rtprio {min(max(priority, 1), 98)}\n"
+            "then log out and in again (never 99: the kernel's watchdog threads run there);\n"
+            + setcap_advice("cap_sys_nice"))
+
+
+def memlock_fix() -> str:
+    """limits.conf first, then the copied-interpreter setcap route."""
+    return (f"add to /etc/security/limits.conf:  {_user()} - memlock -1   (or a size in kB, e.g. 1048576)\n"
+            "then log out and in again;\n" + setcap_advice("cap_ipc_lock"))
+
+
 def _limit_text(value: int) -> str:
     return "unlimited" if value == resource.RLIM_INFINITY else str(value)
 
@@ -126,32 +163,27 @@ def try_mlockall() -> tuple[bool, str]:
 def probe(try_calls: bool = True) -> list[Finding]:
     """The full report, as a list of findings (see :func:`report` for the printed form)."""
     user = _user()
-    python = os.path.realpath(sys.executable)
     caps = effective_capabilities()
     out: list[Finding] = []
     nice, ipc = bool(caps >> CAP_SYS_NICE & 1), bool(caps >> CAP_IPC_LOCK & 1)
     out.append(Finding("user", f"{user} (uid {os.geteuid()}; CAP_SYS_NICE {'yes' if nice else 'no'}, "
                                f"CAP_IPC_LOCK {'yes' if ipc else 'no'})", True))
 
-    soft, hard = resource.getrlimit(resource.RLIMIT_RTPRIO)
-    rtprio_ok = nice or soft >= 1
-    out.append(Finding(
-        "RLIMIT_RTPRIO", f"soft {_limit_text(soft)}, hard {_limit_text(hard)}"
-        + (" (CAP_SYS_NICE overrides it)" if nice else ""),
-        rtprio_ok,
-        f"add to /etc/security/limits.conf:  {user} - rtprio {RT_PRIORITY}\n"
-        "then log out and in (never 99: kernel watchdog threads run there)\n"
-        f"or, for this Python only: sudo setcap cap_sys_nice+ep {python}"))
+    if not hasattr(resource, "RLIMIT_RTPRIO") or not hasattr(os, "sched_setscheduler"):
+        out.append(Finding("real-time scheduling", f"not available on {platform.system()}", False,
+                           "SCHED_FIFO/RR, RLIMIT_RTPRIO and CPU affinity are Linux calls: the chapters\n"
+                           "still run and measure here, under the default scheduler; use Linux for RT runs"))
+    else:
+        soft, hard = resource.getrlimit(resource.RLIMIT_RTPRIO)
+        out.append(Finding(
+            "RLIMIT_RTPRIO", f"soft {_limit_text(soft)}, hard {_limit_text(hard)}"
+            + (" (CAP_SYS_NICE overrides it)" if nice else ""), nice or soft >= 1, rtprio_fix(RT_PRIORITY)))
 
     soft, hard = resource.getrlimit(resource.RLIMIT_MEMLOCK)
     mem_ok = ipc or soft == resource.RLIM_INFINITY
     out.append(Finding(
         "RLIMIT_MEMLOCK", f"soft {_limit_text(soft)} B, hard {_limit_text(hard)} B"
-        + (" (CAP_IPC_LOCK overrides it)" if ipc else ""),
-        mem_ok,
-        f"add to /etc/security/limits.conf:  {user} - memlock -1\n"
-        "(or a size in kB, e.g. 1048576), then log out and in\n"
-        f"or, for this Python only: sudo setcap cap_ipc_lock+ep {python}"))
+        + (" (CAP_IPC_LOCK overrides it)" if ipc else ""), mem_ok, memlock_fix()))
 
     if try_calls:
         ok, text = try_rt_scheduling()

@@ -21,14 +21,14 @@ from __future__ import annotations
 import array
 import resource
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from .clock import MonotonicClock
 from .stats import RttestStats, RunningStats, compute_stats
 from .stats import histogram as _histogram
-from .wait import Hybrid, WaitStrategy
+from .wait import Sleep, WaitStrategy
 
 STOP = object()
 """Return this from a loop callback to end the loop after the current iteration."""
@@ -97,14 +97,16 @@ class LoopResult:
         return k * self.period_ns
 
     def stats(self) -> RttestStats:
+        """rttest's statistics of this run, labelled with the wait strategy that produced them."""
         if self._running is not None and self._running.n > len(self.latency_ns):
             r = self._running
             tail = compute_stats(self.latency_ns) if len(self.latency_ns) else None
             return RttestStats(r.n, int(r.min), int(r.max), r.mean, r.stddev, r.minor, r.major,
                                tail.p50 if tail else float("nan"), tail.p90 if tail else float("nan"),
                                tail.p99 if tail else float("nan"), tail.p999 if tail else float("nan"),
-                               self.overruns)
-        return compute_stats(self.latency_ns, self.minor_pagefaults, self.major_pagefaults, self.overruns)
+                               self.overruns, self.strategy)
+        return replace(compute_stats(self.latency_ns, self.minor_pagefaults, self.major_pagefaults, self.overruns),
+                       wait=self.strategy)
 
     def histogram(self, bins: int = 100, range_ns=None):
         return _histogram(self.latency_ns, bins, range_ns)
@@ -127,8 +129,9 @@ class LoopResult:
 class PeriodicLoop:
     """A periodic loop with absolute deadlines (rttest's spin loop).
 
-    ``PeriodicLoop(1_000_000, 1000, wait=Hybrid(spin_ns=200_000)).run(callback)`` runs 1000
-    iterations at 1 kHz and returns a :class:`LoopResult`. ``callback(tick)`` is optional.
+    ``PeriodicLoop(1_000_000, 1000).run(callback)`` runs 1000 iterations at 1 kHz and returns a
+    :class:`LoopResult`. ``callback(tick)`` is optional. The default wait is :class:`Sleep`,
+    rttest's; pass ``wait=Hybrid(spin_ns=200_000)`` to sleep-then-spin.
     """
 
     def __init__(self, period_ns: int, iterations: int = 1000, wait: WaitStrategy | None = None,
@@ -144,7 +147,7 @@ class PeriodicLoop:
             raise ValueError(f"wait must be Sleep(), Hybrid(spin_ns=...) or Spin(), got {wait!r}")
         self.period_ns = int(period_ns)
         self.iterations = int(iterations)
-        self.wait = wait if wait is not None else Hybrid()
+        self.wait = wait if wait is not None else Sleep()
         self.clock = clock if clock is not None else MonotonicClock()
         self.pagefaults = pagefaults
         self.keep_last = keep_last

@@ -4,7 +4,9 @@ Counterpart: ``rttest_read_args`` (getopt "i:u:p:t:s:m:d:f:r"). Same letters, sa
 same units: -u takes ns/us/ms/s (a bare number is microseconds), -m and -d take gb/mb/kb/b
 (a bare number is megabytes). Where rttest silently exits on a bad value, this names the
 value, the rule and a fix. Extra long options (robocourse only) pick the wait strategy and
-the CPU: --wait sleep|hybrid|spin, --spin DURATION, --cpu N.
+the CPU: --wait sleep|hybrid|spin, --spin DURATION, --cpu N. The default wait is ``sleep``,
+rttest's only one (clock_nanosleep to the absolute deadline); ``hybrid`` and ``spin`` must be
+asked for, because they change both the latency figures and the CPU the loop burns.
 """
 
 from __future__ import annotations
@@ -40,7 +42,7 @@ class RttestOptions:
     stack_size: int = 1 * MIB
     heap_size: int = 8 * GIB
     filename: str | None = None
-    wait: str = "hybrid"
+    wait: str = "sleep"
     spin_ns: int = 200_000
     cpu: int | None = None
 

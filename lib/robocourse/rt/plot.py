@@ -72,11 +72,41 @@ def rttest_plot(source, prefix: str | None = None, fmt: str = "svg") -> list[Pat
     return paths
 
 
-def compare(results: dict, period_ns: int | None = None, title: str = "", axes=None, budget_fraction=0.05):
-    """Latency over time and a shared-bin histogram for several named runs.
+def log_bins(arrays, bins: int = 80, floor: float = 0.1) -> np.ndarray:
+    """Log-spaced bin edges spanning every value of ``arrays`` (values below ``floor`` go to it).
 
-    ``results``: name -> LoopResult (or latency array). Draws the 5 %-of-period line when
-    ``period_ns`` is given. Returns the matplotlib figure (pyplot's, so notebooks show it).
+    A latency distribution spans four decades (a 1 us median, a 10 ms worst case): on linear
+    bins it is one bar and an invisible tail; on log-spaced bins each decade gets the same width.
+    """
+    vals = [np.asarray(a, dtype=float).reshape(-1) for a in arrays]
+    vals = [v for v in vals if v.size]
+    if not vals:
+        raise ValueError("log_bins needs at least one non-empty array")
+    if not floor > 0:
+        raise ValueError(f"floor={floor!r}: log bins need a positive floor, e.g. 0.1 (us)")
+    lo = max(floor, min(float(v.min()) for v in vals))
+    hi = max(max(float(v.max()) for v in vals), lo * 10)
+    return np.geomspace(lo, hi * 1.0001, bins + 1)
+
+
+def log_hist(ax, values, bins: int = 80, floor: float = 0.1, **kwargs):
+    """Histogram on log-spaced bins with log axes; values below ``floor`` are counted in the first bin."""
+    edges = log_bins([values], bins, floor)
+    ax.hist(np.clip(np.asarray(values, dtype=float), edges[0], edges[-1]), bins=edges, **kwargs)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_ylim(bottom=0.8)
+    return edges
+
+
+def compare(results: dict, period_ns: int | None = None, title: str = "", axes=None, budget_fraction=0.05,
+            floor_us: float = 0.1):
+    """Latency over time and a shared-bin histogram for several named runs, on log axes.
+
+    ``results``: name -> LoopResult (or latency array). Both axes are logarithmic and span the
+    data (no empty decades): values below ``floor_us`` are drawn at it (a loop that spins wakes
+    within a fraction of a microsecond). Draws the 5 %-of-period line when ``period_ns`` is given.
+    Returns the matplotlib figure (pyplot's, so notebooks show it).
     """
     import matplotlib.pyplot as plt
 
@@ -87,22 +117,21 @@ def compare(results: dict, period_ns: int | None = None, title: str = "", axes=N
         fig, axes = plt.subplots(1, 2, figsize=(12, 4))
     else:
         fig = axes[0].figure
-    hi = max(float(np.percentile(v, 99.9)) for v in lats.values() if len(v))
-    lo = min(float(v.min()) for v in lats.values() if len(v))
-    bins = np.linspace(min(lo, 0.0), max(hi * 1.2, 1.0), 80)
+    edges = log_bins(lats.values(), 80, floor_us)
     for name, v in lats.items():
-        axes[0].plot(v, lw=0.6, label=name)
-        axes[1].hist(np.clip(v, bins[0], bins[-1]), bins=bins, histtype="step", label=name)
+        axes[0].plot(np.clip(v, edges[0], None), lw=0.6, label=name)
+        axes[1].hist(np.clip(v, edges[0], edges[-1]), bins=edges, histtype="step", label=name)
     if period_ns:
         limit = budget_fraction * period_ns / 1000.0
         for ax in axes:
             (ax.axhline if ax is axes[0] else ax.axvline)(limit, color="red", ls="--", lw=1,
                                                          label=f"{budget_fraction:.0%} of period")
-    axes[0].set(xlabel="iteration", ylabel="latency (us)", title=title or "latency per iteration")
-    axes[0].set_yscale("symlog", linthresh=10)
-    axes[1].set(xlabel="latency (us, p99.9 and above piled in the last bin)", ylabel="iterations",
-                title="histogram")
-    axes[1].set_yscale("log")
+    clipped = any(bool(np.any(v < edges[0])) for v in lats.values())
+    note = f"; < {edges[0]:.2g} us drawn at {edges[0]:.2g}" if clipped else ""
+    axes[0].set(xlabel="iteration", ylabel=f"latency (us, log{note})",
+                title=title or "latency per iteration", yscale="log", ylim=(edges[0] / 1.2, edges[-1] * 1.5))
+    axes[1].set(xlabel=f"latency (us, log-spaced bins{note})", ylabel="iterations (log)",
+                title="histogram", xscale="log", yscale="log", ylim=(0.8, None))
     for ax in axes:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)

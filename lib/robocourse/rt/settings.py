@@ -17,14 +17,13 @@ import contextlib
 import ctypes
 import ctypes.util
 import gc
-import getpass
 import os
 import resource
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from .capabilities import RT_PRIORITY
+from .capabilities import RT_PRIORITY, memlock_fix, rtprio_fix
 
 MCL_CURRENT = 1
 MCL_FUTURE = 2
@@ -46,29 +45,6 @@ def _libc():
 
 
 _LIBC = _libc()
-
-
-def _user() -> str:
-    try:
-        return getpass.getuser()
-    except Exception:
-        return str(os.geteuid())
-
-
-def _python() -> str:
-    return os.path.realpath(sys.executable)
-
-
-def rtprio_fix(priority: int = RT_PRIORITY) -> str:
-    return (f"add to /etc/security/limits.conf:  {_user()} - rtprio {min(max(priority, 1), 98)}\n"
-            "then log out and in again (never 99: the kernel's watchdogs run there);\n"
-            f"or for this Python only: sudo setcap cap_sys_nice+ep {_python()}")
-
-
-def memlock_fix() -> str:
-    return (f"add to /etc/security/limits.conf:  {_user()} - memlock -1   (or a size in kB)\n"
-            "then log out and in again;\n"
-            f"or for this Python only: sudo setcap cap_ipc_lock+ep {_python()}")
 
 
 @dataclass
@@ -310,6 +286,9 @@ def prefault_heap(size: int = 64 * 1024 * 1024, until_no_faults: bool = False,
     populates each new locked chunk, and that counts as faults: measured on Linux 6.18). So by
     default robocourse faults in exactly ``size``, independent of what ran before.
     """
+    if isinstance(size, bool) or not isinstance(size, int) or size < 0:
+        raise ValueError(f"prefault_heap(size={size!r}): the size is a whole number of bytes >= 0; "
+                         "e.g. prefault_heap(64 << 20) or prefault_heap(parse_size('64mb', '-d'))")
     if _LIBC is None or not hasattr(_LIBC, "mallopt"):
         return _fail(SettingReport("heap prefault", False, "glibc's mallopt is not available here",
                                    "Couldn't prefault the heap: this C library has no mallopt (not glibc)"), quiet)
@@ -354,15 +333,23 @@ def prefault_heap(size: int = 64 * 1024 * 1024, until_no_faults: bool = False,
     finally:
         for p in kept:
             free(p)
+    return SettingReport("heap prefault", True, _prefault_text(size, total, faults, until_no_faults, clean))
+
+
+def _prefault_text(size: int, total: int, faults: int, until_no_faults: bool, clean: bool) -> str:
+    """What the heap prefault did, in words that match its own numbers."""
+    kib = 1024
+    head = f"touched {total // kib} KiB of heap (asked for up to {size // kib} KiB), {faults} page faults taken now"
     if not until_no_faults:
-        rule = "all of it"
+        rule = "all of it, not in the loop"
+    elif clean and total <= 64 * PAGE_SIZE:
+        rule = ("the first chunk took no new fault: the heap already held free, mapped memory "
+                "(an earlier prefault or allocations), so rttest's rule stopped at once")
     elif clean:
-        rule = "stopped at the first chunk that took no fault (rttest's rule)"
+        rule = "up to the first chunk that took no new fault (rttest's rule); those faults are not in the loop"
     else:
-        rule = "every chunk faulted, so up to the cap (rttest's rule)"
-    return SettingReport("heap prefault", True,
-                         f"{total // 1024} KiB of heap faulted in, {rule}: {faults} page faults now, "
-                         "not in the loop; freed memory stays mapped (M_TRIM_THRESHOLD -1, M_MMAP_MAX 0)")
+        rule = "every chunk faulted, so up to the cap (rttest's rule); those faults are not in the loop"
+    return f"{head}: {rule}; freed memory stays mapped (M_TRIM_THRESHOLD -1, M_MMAP_MAX 0)"
 
 
 def lock_and_prefault(stack_size: int = 1024 * 1024, heap_size: int = 64 * 1024 * 1024,

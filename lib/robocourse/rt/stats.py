@@ -32,6 +32,8 @@ class RttestStats:
     p99: float
     p999: float
     overruns: int = 0
+    wait: str = ""
+    """The wait strategy that produced the samples ("sleep", "hybrid(200 us spin)", ...); "" if unknown."""
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -44,11 +46,21 @@ class RttestStats:
 
 
 def _as_int_array(values, what: str) -> np.ndarray:
+    """Whole numbers as int64, or a ValueError naming the first bad value (never a silent cast)."""
     arr = np.asarray(values)
     if arr.ndim != 1:
-        raise ValueError(f"{what} must be a 1-D sequence of ns values, got shape {arr.shape}")
-    if arr.size and not np.issubdtype(arr.dtype, np.number):
-        raise ValueError(f"{what} must hold numbers, got dtype {arr.dtype}")
+        raise ValueError(f"{what} must be a 1-D sequence of whole ns values, got shape {arr.shape}")
+    if arr.size and (arr.dtype == bool or not np.issubdtype(arr.dtype, np.number)):
+        raise ValueError(f"{what} must hold whole numbers (int ns), got dtype {arr.dtype}")
+    if arr.size and not np.issubdtype(arr.dtype, np.integer):
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            raise ValueError(f"{what}[{bad[0]}] is {float(arr[bad[0]])!r}: rttest's samples are whole, finite ns; "
+                             "drop or re-measure that iteration")
+        frac = np.flatnonzero(arr != np.round(arr))
+        if frac.size:
+            raise ValueError(f"{what}[{frac[0]}] is {float(arr[frac[0]])!r}: rttest's samples are whole ns and "
+                             "would be truncated; round them first, e.g. np.rint(x).astype(np.int64)")
     return arr.astype(np.int64, copy=False)
 
 
@@ -67,9 +79,28 @@ def compute_stats(latency_ns, minor_pagefaults=None, major_pagefaults=None, over
                        p50, p90, p99, p999, int(overruns))
 
 
+def describe_wait(wait: str) -> str:
+    """One line saying how the loop waited, and whether that is what rttest does."""
+    if not wait:
+        return ""
+    if wait == "sleep":
+        return "Wait strategy: sleep (clock_nanosleep to each absolute deadline, as rttest does)"
+    if wait.startswith("hybrid"):
+        return (f"Wait strategy: {wait}: sleeps, then busy-waits up to the deadline "
+                "(rttest only sleeps; compare with --wait sleep)")
+    if wait == "spin":
+        return "Wait strategy: spin: busy-waits the whole period (rttest only sleeps; compare with --wait sleep)"
+    return f"Wait strategy: {wait}"
+
+
 def format_rttest(stats: RttestStats, name: str | None = None, extended: bool = True) -> str:
-    """rttest's statistics block; with ``extended`` a second block with the tail and overruns."""
-    lines = [
+    """rttest's statistics block; with ``extended`` a second block with the tail and overruns.
+
+    When the statistics know their wait strategy a line naming it comes first, so a block is
+    never read as rttest's sleeping loop when it was not; rttest's block follows unchanged.
+    """
+    wait_line = describe_wait(stats.wait)
+    lines = ([wait_line] if wait_line else []) + [
         "rttest statistics" + (f" for {name}:" if name else ":"),
         f"  - Minor pagefaults: {stats.minor_pagefaults}",
         f"  - Major pagefaults: {stats.major_pagefaults}",

@@ -1,0 +1,78 @@
+"""robocourse.rt.repeat: interleaved rounds, medians with spread, sentences that follow the numbers."""
+
+import numpy as np
+import pytest
+
+from robocourse.rt import FakeClock, PeriodicLoop, Sleep
+from robocourse.rt.repeat import compare_sentence, measure_rounds
+
+
+class Fixed:
+    """A run whose latency samples are given (stands in for a LoopResult)."""
+
+    def __init__(self, lat):
+        self.latency_ns = np.asarray(lat, dtype=np.int64)
+        self.busy_ns = np.zeros_like(self.latency_ns)
+
+    def stats(self):
+        from robocourse.rt.stats import compute_stats
+
+        return compute_stats(self.latency_ns)
+
+
+def _sequence(values):
+    it = iter(values)
+    return lambda: Fixed([next(it)] * 10)
+
+
+def test_order_alternates_every_round():
+    calls = []
+    rep = measure_rounds({n: (lambda n=n: calls.append(n) or Fixed([1])) for n in "abc"}, rounds=4)
+    assert rep.order == [list("abc"), list("cba"), list("abc"), list("cba")]
+    assert calls == list("abccbaabccba") and rep.rounds == 4
+
+
+def test_median_and_range_over_rounds():
+    rep = measure_rounds({"a": _sequence([1000, 5000, 2000])}, rounds=3)
+    assert rep.median("a", "p50") == 2000 and rep.spread("a", "p50") == (1000, 5000)
+    assert rep.cell("a", "p50") == "2.0 [1.0-5.0]"
+    assert "median [lowest-highest] over 3 rounds" in rep.table(("p50",))
+
+
+def test_sentence_says_lower_only_when_the_rounds_agree():
+    rep = measure_rounds({"a": _sequence([1000] * 5), "b": _sequence([2000] * 5)}, rounds=5)
+    assert "lower than b's in all 5 rounds" in compare_sentence(rep, "a", "b", "p50")
+    assert "higher than a's in all 5 rounds" in compare_sentence(rep, "b", "a", "p50")
+    mixed = measure_rounds({"a": _sequence([1, 3, 1, 3, 1]), "b": _sequence([2] * 5)}, rounds=5)
+    text = compare_sentence(mixed, "a", "b", "p50", scale=1, unit="ns", digits=0)
+    assert "not consistently different from b's: lower in 3, higher in 2 of 5 rounds" in text
+    assert text.startswith("a: median p50 1 ns (range 1 ns to 3 ns)")
+
+
+def test_real_loops_are_measured_each_round():
+    rep = measure_rounds({"sleep": lambda: PeriodicLoop(1_000_000, 20, Sleep(), clock=FakeClock(seed=3),
+                                                        pagefaults=False).run()}, rounds=2)
+    assert [r.iterations for r in rep.runs["sleep"]] == [20, 20]
+    assert rep.pooled_latency_ns("sleep").size == 40
+
+
+@pytest.mark.parametrize("kwargs,fragment", [
+    ({"experiments": {"a": lambda: None}, "rounds": 0}, "rounds=0: run every experiment at least once"),
+    ({"experiments": {}, "rounds": 2}, "at least one experiment"),
+    ({"experiments": {"a": 3}, "rounds": 2}, "experiment 'a' must be a function"),
+])
+def test_bad_arguments_are_refused(kwargs, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        measure_rounds(**kwargs)
+
+
+def test_unknown_metric_is_named():
+    rep = measure_rounds({"a": _sequence([1])}, rounds=1)
+    with pytest.raises(ValueError, match="unknown metric 'p42'"):
+        rep.median("a", "p42")
+
+
+def test_progress_bar_counts_every_run(capsys):
+    rep = measure_rounds({"a": _sequence([1, 2]), "b": _sequence([3, 4])}, rounds=2, progress=True)
+    err = capsys.readouterr().err
+    assert rep.rounds == 2 and "runs:" in err and "/4" in err
