@@ -317,17 +317,17 @@ def _fast_check(spec, nested, var: str) -> str:
     if spec.is_array:
         if nested is None and spec.base_type in TYPECODES and not spec.is_fixed_array \
                 and spec.array_size is None:
-            return f"_type_of({var}) is not _array or {var}.typecode != {TYPECODES[spec.base_type]!r}"
+            return f"type({var}) is not _array or {var}.typecode != {TYPECODES[spec.base_type]!r}"
         return "True"
     if nested is not None:
-        return f"_type_of({var}) is not _T_{spec.name}"
+        return f"type({var}) is not _T_{spec.name}"
     kind = _pytype_name(spec.base_type)
     if spec.base_type == "float64":
-        return f"_type_of({var}) is not float"
+        return f"type({var}) is not float"
     if kind == "str" and not spec.string_bound:
-        return f"_type_of({var}) is not str"
+        return f"type({var}) is not str"
     if kind == "bool":
-        return f"_type_of({var}) is not bool"
+        return f"type({var}) is not bool"
     return "True"
 
 
@@ -381,7 +381,6 @@ def build_methods(cls, specs, rules: dict, defaults: dict) -> None:
                 copy_lines.append(f"    _s_{n}(n, self.{n})")
             eq_terms.append(f"self.{n} == other.{n}")
     g["_seq_eq"] = _seq_eq
-    g["_type_of"] = type  # a field may be called "type" (ControllerState.type) and shadow the builtin
     src = (f"def __init__(self, {', '.join(params)}):\n" + "\n".join(body or ["    pass"]) + "\n"
            "def _copy(self):\n    n = _new(_cls)\n" + "\n".join(copy_lines) + "\n    return n\n"
            "def __eq__(self, other):\n    if type(other) is not type(self):\n"
