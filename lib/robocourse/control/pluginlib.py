@@ -89,6 +89,8 @@ def _builtins() -> None:
     register("effort_controllers/JointGroupEffortController", fcc + "JointGroupEffortController", CONTROLLER_BASE)
     register("joint_state_broadcaster/JointStateBroadcaster",
              c + "joint_state_broadcaster:JointStateBroadcaster", CONTROLLER_BASE)
+    register("joint_trajectory_controller/JointTrajectoryController",
+             c + "joint_trajectory_controller:JointTrajectoryController", CONTROLLER_BASE)
 
 
 _builtins()

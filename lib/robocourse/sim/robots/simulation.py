@@ -346,7 +346,7 @@ class RobotSim:
         if n.__class__ is not int or n < 1:
             raise ValueError(f"step(n={n!r}): n must be an int >= 1")
         total = self.commands.dot(self._ones)  # NaN or inf anywhere makes the sum non-finite
-        if total - total != 0.0:
+        if not math.isfinite(total):  # a float test: no numpy inf - inf RuntimeWarning
             bad = [(j, float(c)) for j, c in zip(self.joint_names, self.commands) if not math.isfinite(c)]
             raise ValueError(f"non-finite command {bad} at t={self.data.time:.4f} s: MuJoCo would zero "
                              "every control; write finite values to sim.commands")
