@@ -91,6 +91,8 @@ def _builtins() -> None:
              c + "joint_state_broadcaster:JointStateBroadcaster", CONTROLLER_BASE)
     register("joint_trajectory_controller/JointTrajectoryController",
              c + "joint_trajectory_controller:JointTrajectoryController", CONTROLLER_BASE)
+    register("admittance_controller/AdmittanceController", c + "admittance_controller:AdmittanceController",
+             CONTROLLER_BASE)
 
 
 _builtins()

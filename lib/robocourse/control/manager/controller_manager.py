@@ -321,6 +321,7 @@ class ControllerManager:
             rate = new_rate
         spec.c.update_rate = rate
         spec.ticks = ticks
+        self._reorder()   # a controller may know its interfaces (and so its chain) only once configured
         return return_type.OK
 
     def cleanup_controller(self, name: str) -> return_type:
@@ -578,8 +579,27 @@ class ControllerManager:
                 return n, f"Controller with name '{n}' can not be deactivated since it is not active."
         return None
 
+    def _chain_cycle(self, start: str) -> list[str] | None:
+        """The path start -> ... -> start through followers, if ``start`` is on a chaining cycle."""
+        stack, seen = [(start, [start])], set()
+        while stack:
+            n, path = stack.pop()
+            for f in self._followers(self.controllers[n]) if n in self.controllers else []:
+                if f == start:
+                    return path + [f]
+                if f not in seen:
+                    seen.add(f)
+                    stack.append((f, path + [f]))
+        return None
+
     def _check_chaining(self, activate, deactivate):
         active = {s.name for s in self._active}
+        for n in activate:
+            cycle = self._chain_cycle(n)
+            if cycle:
+                return n, (f"Unable to activate controller '{n}' since it is part of a chaining cycle "
+                           f"{' -> '.join(cycle)}: a controller must not claim, directly or through others, "
+                           "its own reference interfaces (break the cycle in the controllers' parameters)")
         for n in activate:
             for f in self._followers(self.controllers[n]):
                 will_be_active = (f in active and f not in deactivate) or f in activate
