@@ -91,6 +91,10 @@ def _builtins() -> None:
              c + "joint_state_broadcaster:JointStateBroadcaster", CONTROLLER_BASE)
     register("joint_trajectory_controller/JointTrajectoryController",
              c + "joint_trajectory_controller:JointTrajectoryController", CONTROLLER_BASE)
+    register("parallel_gripper_action_controller/GripperActionController",
+             c + "parallel_gripper_controller:ParallelGripperController", CONTROLLER_BASE)
+    register("diff_drive_controller/DiffDriveController", c + "diff_drive_controller:DiffDriveController",
+             CONTROLLER_BASE)
     register("admittance_controller/AdmittanceController", c + "admittance_controller:AdmittanceController",
              CONTROLLER_BASE)
 

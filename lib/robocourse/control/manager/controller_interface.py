@@ -59,6 +59,9 @@ class ControllerInterface(LifecycleCallbacks):
         self.param_listener: ParamListener | None = None
         self.update_rate = 0
         self.is_async = False
+        #: URDF joint limits by joint name (JointLimits), filled by the manager at load (upstream
+        #: controllers read them from robot_description)
+        self.joint_limits: dict = {}
         self._lifecycle_state: State = UNKNOWN
         self._node = None
         self._node_factory = None

@@ -263,6 +263,8 @@ class ControllerManager:
             controller = cls()
         spec = ControllerSpec(name, controller_type, controller, entry.get("fallback_controllers", []))
         values = self.controller_parameters(name)
+        # what upstream controllers parse from robot_description: the URDF <limit> of every joint
+        controller.joint_limits = {j: lim for comp in self.rm.components.values() for j, lim in comp.info.limits.items()}
         try:
             state = spec.lifecycle.initialize(name, values, self.update_rate, self._make_node, self.log.logger(name),
                                               method="init")

@@ -30,7 +30,6 @@ from pathlib import Path
 import numpy as np
 
 from robocourse.bus.action import ActionServer, CancelResponse, GoalResponse
-from robocourse.bus.task import Future
 from robocourse.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
 
 from ...hardware.types import CallbackReturn, return_type
@@ -43,6 +42,7 @@ from ...manager.loaned import InterfaceGroup
 from ...msgs import FollowJointTrajectory, JointTrajectoryControllerState
 from ...parameters import ParameterSchema
 from ..control_toolbox import Pid
+from ..realtime_goal import GoalMonitor
 from .trajectory import Sample, Trajectory
 
 _HERE = Path(__file__).parent
@@ -75,31 +75,33 @@ class _Tolerances:
         self.goal_velocity = np.zeros(dof)
         self.goal_acceleration = np.zeros(dof)
         self.goal_time = 0.0
+        self.seal()
+
+    def seal(self) -> None:
+        """Note which tolerance vectors check anything (the real-time side skips the rest)."""
+        self.state_checks = [(f, t) for f, t in (("positions", self.state_position), ("velocities", self.state_velocity),
+                                                 ("accelerations", self.state_acceleration)) if t.any()]
+        self.goal_checks = [(f, t) for f, t in (("positions", self.goal_position), ("velocities", self.goal_velocity),
+                                                ("accelerations", self.goal_acceleration)) if t.any()]
 
     def copy(self) -> _Tolerances:
         out = _Tolerances(len(self.state_position))
         for k, v in vars(self).items():
-            setattr(out, k, v.copy() if isinstance(v, np.ndarray) else v)
+            if isinstance(v, np.ndarray):
+                setattr(out, k, v.copy())
+            elif not isinstance(v, list):
+                setattr(out, k, v)
+        out.seal()
         return out
 
 
-def _violates(err_p, err_v, err_a, tol_p, tol_v, tol_a) -> bool:
+def _violates(err, checks) -> bool:
     """check_state_tolerance_per_joint for all joints: a tolerance of 0 is not checked."""
-    if np.any((tol_p > 0.0) & (np.abs(err_p) > tol_p)):
-        return True
-    if np.any((tol_v > 0.0) & (np.abs(err_v) > tol_v)):
-        return True
-    return bool(np.any((tol_a > 0.0) & (np.abs(err_a) > tol_a)))
-
-
-class _RtGoal:
-    """The active action goal as the real-time side sees it (upstream's RealtimeServerGoalHandle)."""
-
-    def __init__(self, handle):
-        self.handle = handle
-        self.future = Future()
-        self.feedback = None          # newest feedback, published by the monitor timer
-        self.outcome = None           # ("succeed" | "abort" | "canceled", Result)
+    for field, tol in checks:
+        e = getattr(err, field)
+        if np.any((np.abs(e) > tol) & (tol > 0.0)):
+            return True
+    return False
 
 
 class JointTrajectoryController(ControllerInterface):
@@ -115,8 +117,7 @@ class JointTrajectoryController(ControllerInterface):
         self._new_traj: Trajectory | None = None   # the real-time buffer a callback writes
         self._hold_requested = False
         self._is_holding = False
-        self._rt_goal: _RtGoal | None = None
-        self._finished_goals: list[_RtGoal] = []
+        self.goals = GoalMonitor(self._feedback)
         self.subscriber_is_active = False
         self.use_closed_loop_pid = False
         self._action_server = None
@@ -195,6 +196,7 @@ class JointTrajectoryController(ControllerInterface):
         tol.goal_position[:] = [c.get_entry(j).goal for j in self._joints]
         tol.goal_velocity[:] = c.stopped_velocity_tolerance
         tol.goal_time = c.goal_time
+        tol.seal()
         self.default_tolerances = tol
         self.ff_velocity_scale = np.array([p.gains.get_entry(j).ff_velocity_scale for j in self._joints])
         self.cmd_timeout = p.cmd_timeout
@@ -237,12 +239,8 @@ class JointTrajectoryController(ControllerInterface):
         return CallbackReturn.SUCCESS
 
     def on_deactivate(self, previous_state):
-        goal = self._rt_goal
-        if goal is not None:
-            goal.outcome = ("abort", Result(error_code=Result.INVALID_GOAL,
-                                            error_string="Current goal cancelled during deactivate transition."))
-            self._rt_goal = None
-            self._finished_goals.append(goal)
+        self.goals.finish("abort", Result(error_code=Result.INVALID_GOAL,
+                                          error_string="Current goal cancelled during deactivate transition."))
         self._read_state(self.state_current)
         if "position" in self._cmd:
             self._cmd["position"].set(self.state_current.positions)
@@ -277,7 +275,7 @@ class JointTrajectoryController(ControllerInterface):
     def update(self, time, period):
         if self.param_listener.try_update_params(self.params):
             self._read_dynamic_params()
-            if self._rt_goal is None:
+            if self.goals.active is None:
                 self.active_tolerances = self.default_tolerances.copy()
             if self.pid is not None:
                 self.pid.set_gains(*self._gains())
@@ -336,19 +334,17 @@ class JointTrajectoryController(ControllerInterface):
         within_goal_time = True
         if not holding:
             if before_last_point or first_sample:
-                violated = _violates(err.positions, err.velocities, err.accelerations, tol.state_position,
-                                     tol.state_velocity, tol.state_acceleration)
+                violated = _violates(err, tol.state_checks)
             if not before_last_point:
-                outside_goal = _violates(err.positions, err.velocities, err.accelerations, tol.goal_position,
-                                         tol.goal_velocity, tol.goal_acceleration)
+                outside_goal = _violates(err, tol.goal_checks)
                 if outside_goal and tol.goal_time > 0.0 and time_difference > tol.goal_time:
                     within_goal_time = False
         self._write_commands(period)
         self.last_commanded.copy_from(self.command_next)
         self.last_commanded_time = time
-        goal = self._rt_goal
+        goal = self.goals.active
         if goal is not None:
-            goal.feedback = (t, idx)
+            goal.feedback_due = (t, idx)
             if violated:
                 self.get_logger().warning("Aborted due to state tolerance violation")
                 self._finish_goal(goal, "abort", Result.PATH_TOLERANCE_VIOLATED,
@@ -391,10 +387,8 @@ class JointTrajectoryController(ControllerInterface):
         if "effort" in cmd:
             cmd["effort"].set(c.effort)
 
-    def _finish_goal(self, goal: _RtGoal, how: str, code: int, text: str) -> None:
-        goal.outcome = (how, Result(error_code=code, error_string=text))
-        self._rt_goal = None
-        self._finished_goals.append(goal)
+    def _finish_goal(self, goal, how: str, code: int, text: str) -> None:
+        self.goals.finish(how, Result(error_code=code, error_string=text))
         self.active_tolerances = self.default_tolerances.copy()
 
     def _point(self, s: Sample) -> JointTrajectoryPoint:
@@ -508,6 +502,7 @@ class JointTrajectoryController(ControllerInterface):
         gt = _seconds(goal.goal_time_tolerance)
         if gt > 0.0:
             tol.goal_time = gt
+        tol.seal()
         return tol
 
     def _goal_received(self, goal):
@@ -526,61 +521,39 @@ class JointTrajectoryController(ControllerInterface):
         return GoalResponse.ACCEPT
 
     def _goal_accepted(self, handle) -> None:
-        old = self._rt_goal
-        if old is not None:  # preempt_active_goal()
-            self._rt_goal = None
-            old.outcome = ("abort", Result(error_code=Result.INVALID_GOAL,
-                                           error_string="Current goal preempted by new incoming action."))
-            self._finished_goals.append(old)
-        goal = _RtGoal(handle)
+        self.goals.finish("abort", Result(error_code=Result.INVALID_GOAL,   # preempt_active_goal()
+                                          error_string="Current goal preempted by new incoming action."))
         self.active_tolerances = self._goal_tolerances(handle.request)
         self._new_traj = self._to_trajectory(handle.request.trajectory)
         self._hold_requested = False
         self._is_holding = False
-        self._rt_goal = goal
+        self.goals.start(handle)
         handle.execute()
         self._monitor_goal()
 
     def _goal_cancelled(self, handle):
-        goal = self._rt_goal
+        goal = self.goals.active
         if goal is not None and goal.handle is handle:
             self.get_logger().info("Got request to cancel goal")
-            self._rt_goal = None
-            goal.outcome = ("canceled", Result())
-            self._finished_goals.append(goal)
+            self.goals.finish("canceled", Result())
             self._hold()
         return CancelResponse.ACCEPT
 
-    async def _execute(self, handle):
-        goal = self._rt_goal if self._rt_goal is not None and self._rt_goal.handle is handle else None
-        if goal is None:
-            goal = next((g for g in self._finished_goals if g.handle is handle), None)
-        if goal is None:
-            handle.abort()
-            return Result(error_code=Result.INVALID_GOAL, error_string="goal was not tracked by the controller")
-        return await goal.future
+    def _execute(self, handle):
+        return self.goals.execute(handle, Result(error_code=Result.INVALID_GOAL,
+                                                 error_string="goal was not tracked by the controller"))
 
     def _monitor_goal(self) -> None:
         """The goal handle timer (action_monitor_rate): feedback of the active goal, results of finished ones."""
-        goal = self._rt_goal
-        if goal is not None and goal.feedback is not None and goal.handle.is_active:
-            self._publish_feedback(goal)
-        while self._finished_goals:
-            g = self._finished_goals.pop(0)
-            if g.feedback is not None and g.handle.is_active:
-                self._publish_feedback(g)
-            how, result = g.outcome
-            if g.handle.is_active:
-                {"succeed": g.handle.succeed, "abort": g.handle.abort, "canceled": g.handle.canceled}[how]()
-            g.future.set_result(result)
+        self.goals.run_non_realtime()
 
-    def _publish_feedback(self, goal: _RtGoal) -> None:
-        t, idx = goal.feedback
+    def _feedback(self, goal):
+        t, idx = goal.feedback_due
         fb = FollowJointTrajectory.Feedback(joint_names=list(self._joints), desired=self._point(self.state_desired),
                                             actual=self._point(self.state_current),
                                             error=self._point(self.state_error), index=int(idx))
         fb.header.stamp = _stamp(t)
-        goal.handle.publish_feedback(fb)
+        return fb
 
 
 __all__ = ["JointTrajectoryController"]

@@ -61,6 +61,11 @@ class Trajectory:
         self.before = Sample(self.dof)        # the state before the trajectory (set at the first sample)
         self.time_before = 0.0
         self.last_index = 0                   # segment search starts here (time only moves forward)
+        self._coef = np.zeros((6, self.dof))  # the current segment's polynomial (cached per segment)
+        self._key = -3                        # which segment _coef holds (-1 the first, -2/-3 none)
+        self._powers = np.zeros((3, 6))       # rows: d^0, d^1, d^2 of [1, t, .., t^5]
+        self._powers[0, 0], self._powers[1, 1], self._powers[2, 2] = 1.0, 1.0, 2.0
+        self._pva = np.zeros((3, self.dof))
 
     def __len__(self) -> int:
         return len(self.times)
@@ -74,6 +79,7 @@ class Trajectory:
         """``set_point_before_trajectory_msg``: where the first segment starts."""
         self.time_before = time
         self.before.copy_from(state)
+        self._key = -3
 
     def sample(self, t: float, out: Sample, interpolate: bool = True) -> int:
         """Fill ``out`` with the trajectory at absolute time ``t``.
@@ -128,13 +134,16 @@ class Trajectory:
         b = self.before
         T = self.start_time + self.times[0] - self.time_before
         dt = max(t - self.time_before, 0.0)
-        v1 = None if self.velocities is None else self.velocities[0]
-        a1 = None if self.accelerations is None else self.accelerations[0]
-        v0 = b.velocities if b.has_velocities else _ZERO_LIKE(b.velocities)
-        a0 = b.accelerations if b.has_accelerations else _ZERO_LIKE(b.accelerations)
-        _spline(b.positions, v0, a0, self.positions[0], v1, a1, dt, T, out)
+        if self._key != -1:
+            zeros = np.zeros(self.dof)
+            v0 = b.velocities if b.has_velocities else zeros
+            a0 = b.accelerations if b.has_accelerations else zeros
+            v1 = None if self.velocities is None else self.velocities[0]
+            a1 = None if self.accelerations is None else self.accelerations[0]
+            self._key = -1 if _coefficients(b.positions, v0, a0, self.positions[0], v1, a1, T, self._coef) else -2
+        self._evaluate(dt, T, out)
         if self.effort is not None:
-            e0 = b.effort if b.has_effort else _ZERO_LIKE(b.effort)
+            e0 = b.effort if b.has_effort else np.zeros(self.dof)
             np.multiply(self.effort[0] - e0, dt / T if T > 0 else 1.0, out=out.effort)
             out.effort += e0
             out.has_effort = True
@@ -143,9 +152,13 @@ class Trajectory:
             out.has_effort = False
 
     def _interpolate(self, i: int, j: int, dt: float, T: float, out: Sample) -> None:
-        v, a = self.velocities, self.accelerations
-        _spline(self.positions[i], None if v is None else v[i], None if a is None else a[i],
-                self.positions[j], None if v is None else v[j], None if a is None else a[j], dt, T, out)
+        if self._key != i:
+            v, a = self.velocities, self.accelerations
+            ok = _coefficients(self.positions[i], None if v is None else v[i], None if a is None else a[i],
+                               self.positions[j], None if v is None else v[j], None if a is None else a[j], T,
+                               self._coef)
+            self._key = i if ok else -2
+        self._evaluate(dt, T, out)
         if self.effort is not None:
             np.multiply(self.effort[j] - self.effort[i], dt / T, out=out.effort)
             out.effort += self.effort[i]
@@ -154,46 +167,50 @@ class Trajectory:
             out.effort.fill(0.0)
             out.has_effort = False
 
+    def _evaluate(self, t: float, T: float, out: Sample) -> None:
+        """positions, velocities, accelerations = powers of t times the cached segment coefficients."""
+        t = min(max(t, 0.0), T) if T > 0.0 else 0.0
+        t2 = t * t
+        t3 = t2 * t
+        m = self._powers
+        m[0, 1], m[0, 2], m[0, 3], m[0, 4], m[0, 5] = t, t2, t3, t3 * t, t3 * t2
+        m[1, 2], m[1, 3], m[1, 4], m[1, 5] = 2.0 * t, 3.0 * t2, 4.0 * t3, 5.0 * t3 * t
+        m[2, 3], m[2, 4], m[2, 5] = 6.0 * t, 12.0 * t2, 20.0 * t3
+        np.dot(m, self._coef, out=self._pva)
+        out.positions[:] = self._pva[0]
+        out.velocities[:] = self._pva[1]
+        out.accelerations[:] = self._pva[2]
+        out.has_velocities = out.has_accelerations = True
 
-def _ZERO_LIKE(a):  # noqa: N802  (reads as a constant in the formulas)
-    return np.zeros_like(a)
 
-
-def _spline(p0, v0, a0, p1, v1, a1, t, T, out: Sample) -> None:
-    """Sample the segment p0 -> p1 of duration ``T`` at ``t`` (upstream's interpolate_between_points).
+def _coefficients(p0, v0, a0, p1, v1, a1, T, C) -> bool:
+    """Fill C (6 x joints) with the segment polynomial's coefficients (upstream's formulas).
 
     Degree from what the END point has: velocities and accelerations -> quintic, velocities ->
-    cubic, positions only -> linear (the start's missing fields count as zero).
+    cubic, positions only -> linear (the start's missing fields count as zero). A segment of
+    zero duration is the end point held (velocity and acceleration of the end point). Returns
+    False for that case (nothing to cache).
     """
+    C.fill(0.0)
     if T <= 0.0:
-        out.positions[:] = p1
-        out.velocities[:] = 0.0 if v1 is None else v1
-        out.accelerations[:] = 0.0 if a1 is None else a1
-        out.has_velocities = out.has_accelerations = True
-        return
-    t = min(max(t, 0.0), T)
+        C[0] = p1
+        C[1] = 0.0 if v1 is None else v1
+        C[2] = 0.0 if a1 is None else 0.5 * a1
+        return False
     if v1 is None:  # linear
-        slope = (p1 - p0) / T
-        np.multiply(slope, t, out=out.positions)
-        out.positions += p0
-        out.velocities[:] = slope
-        out.accelerations.fill(0.0)
-    elif a1 is None:  # cubic: a0=p0, a1=v0, a2=(-3p0+3p1-2v0T-v1T)/T^2, a3=(2p0-2p1+v0T+v1T)/T^3
-        c2 = (3.0 * (p1 - p0) - (2.0 * v0 + v1) * T) / (T * T)
-        c3 = (2.0 * (p0 - p1) + (v0 + v1) * T) / (T * T * T)
-        out.positions[:] = p0 + t * (v0 + t * (c2 + t * c3))
-        out.velocities[:] = v0 + t * (2.0 * c2 + 3.0 * t * c3)
-        out.accelerations[:] = 2.0 * c2 + 6.0 * t * c3
+        C[0] = p0
+        C[1] = (p1 - p0) / T
+    elif a1 is None:  # cubic: a2=(-3p0+3p1-2v0T-v1T)/T^2, a3=(2p0-2p1+v0T+v1T)/T^3
+        C[0], C[1] = p0, v0
+        C[2] = (3.0 * (p1 - p0) - (2.0 * v0 + v1) * T) / (T * T)
+        C[3] = (2.0 * (p0 - p1) + (v0 + v1) * T) / (T * T * T)
     else:  # quintic
         T2, T3 = T * T, T * T * T
-        c2 = 0.5 * a0
-        c3 = (-20.0 * p0 + 20.0 * p1 - 3.0 * a0 * T2 + a1 * T2 - 12.0 * v0 * T - 8.0 * v1 * T) / (2.0 * T3)
-        c4 = (30.0 * p0 - 30.0 * p1 + 3.0 * a0 * T2 - 2.0 * a1 * T2 + 16.0 * v0 * T + 14.0 * v1 * T) / (2.0 * T3 * T)
-        c5 = (-12.0 * p0 + 12.0 * p1 - a0 * T2 + a1 * T2 - 6.0 * v0 * T - 6.0 * v1 * T) / (2.0 * T3 * T2)
-        out.positions[:] = p0 + t * (v0 + t * (c2 + t * (c3 + t * (c4 + t * c5))))
-        out.velocities[:] = v0 + t * (2.0 * c2 + t * (3.0 * c3 + t * (4.0 * c4 + t * 5.0 * c5)))
-        out.accelerations[:] = 2.0 * c2 + t * (6.0 * c3 + t * (12.0 * c4 + t * 20.0 * c5))
-    out.has_velocities = out.has_accelerations = True
+        C[0], C[1], C[2] = p0, v0, 0.5 * a0
+        C[3] = (-20.0 * p0 + 20.0 * p1 - 3.0 * a0 * T2 + a1 * T2 - 12.0 * v0 * T - 8.0 * v1 * T) / (2.0 * T3)
+        C[4] = (30.0 * p0 - 30.0 * p1 + 3.0 * a0 * T2 - 2.0 * a1 * T2 + 16.0 * v0 * T + 14.0 * v1 * T) / (2.0 * T3 * T)
+        C[5] = (-12.0 * p0 + 12.0 * p1 - a0 * T2 + a1 * T2 - 6.0 * v0 * T - 6.0 * v1 * T) / (2.0 * T3 * T2)
+    return True
 
 
 __all__ = ["Sample", "Trajectory"]
