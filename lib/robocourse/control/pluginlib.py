@@ -95,6 +95,7 @@ def _builtins() -> None:
              c + "parallel_gripper_controller:ParallelGripperController", CONTROLLER_BASE)
     register("diff_drive_controller/DiffDriveController", c + "diff_drive_controller:DiffDriveController",
              CONTROLLER_BASE)
+    register("pid_controller/PidController", c + "pid_controller:PidController", CONTROLLER_BASE)
     register("admittance_controller/AdmittanceController", c + "admittance_controller:AdmittanceController",
              CONTROLLER_BASE)
 

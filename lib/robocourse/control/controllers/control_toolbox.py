@@ -22,12 +22,14 @@ class Pid:
         self.i_clamp = np.zeros_like(self.p) if i_clamp is None else np.array(i_clamp, dtype=float)
         self.i_term = np.zeros_like(self.p)
         self.out = np.zeros_like(self.p)
+        self.prev_error = np.full_like(self.p, np.nan)
 
     def set_gains(self, p, i, d, i_clamp) -> None:
         self.p[:], self.i[:], self.d[:], self.i_clamp[:] = p, i, d, i_clamp
 
     def reset(self) -> None:
         self.i_term.fill(0.0)
+        self.prev_error.fill(np.nan)
 
     def compute_command(self, error, error_dot, dt: float) -> np.ndarray:
         """The command for ``error`` and ``error_dot`` over ``dt`` seconds (the internal buffer)."""
@@ -40,7 +42,17 @@ class Pid:
         np.multiply(self.p, error, out=self.out)
         self.out += self.i_term
         self.out += self.d * error_dot
+        self.prev_error[:] = error
         return self.out
+
+    def compute_command_from_error(self, error, dt: float) -> np.ndarray:
+        """``compute_command(error, dt)``: the error's derivative from the previous call (0 on the first)."""
+        if dt > 0.0:
+            d = (error - self.prev_error) / dt
+            d[np.isnan(d)] = 0.0
+        else:
+            d = np.zeros_like(self.p)
+        return self.compute_command(error, d, dt)
 
 
 __all__ = ["Pid"]
