@@ -49,15 +49,13 @@ ARM = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_join
        "wrist_3_joint", "finger_joint"]
 
 
-def params(rate: int) -> str:
-    return f"""
-controller_manager:
-  ros__parameters:
-    update_rate: {rate}
-    fwd: {{type: position_controllers/JointGroupPositionController}}
-    jsb: {{type: joint_state_broadcaster/JointStateBroadcaster}}
-fwd: {{ros__parameters: {{joints: [{", ".join(ARM)}]}}}}
-"""
+def params(rate: int, name: str = "fwd", ctype: str = "position_controllers/JointGroupPositionController",
+           own: str | None = None) -> str:
+    """The manager's YAML: ``name`` (type ``ctype``, parameters ``own``) and the joint state broadcaster."""
+    own = own if own is not None else f"joints: [{', '.join(ARM)}]"
+    return (f"controller_manager:\n  ros__parameters:\n    update_rate: {rate}\n"
+            f"    {name}: {{type: {ctype}}}\n    jsb: {{type: joint_state_broadcaster/JointStateBroadcaster}}\n"
+            f"{name}: {{ros__parameters: {{{own}}}}}\n")
 
 
 def make(plugin: str, rate: int = 500):
@@ -117,6 +115,29 @@ class HandWritten:
             self.msources = (self.sim.mimic_positions, self.sim.mimic_velocities)
             self.ft = self.impl._ft_slots
 
+    def mock_read(self) -> None:
+        """GenericSystem.read() flat: commands (+offset) mirrored into states, NaN skipped, inf refused."""
+        st, cmd = self.st, self.cmd
+        np.take(cmd, self.src, out=self.buf)
+        if np.isinf(self.buf).any():
+            raise RuntimeError("inf")
+        self.buf += self.add
+        np.isnan(self.buf, out=self.nan)
+        np.take(st, self.dst, out=self.old)
+        np.copyto(self.buf, self.old, where=self.nan)
+        st[self.dst] = self.buf
+
+    def publish_joint_states(self, t: float) -> None:
+        """The joint state broadcaster's work flat: gather, build, stamp, publish."""
+        for f in range(3):
+            np.take(self.st, self.gidx[f], out=self.gbuf[f])
+        msg = JointState(name=list(self.names), position=self.gbuf[0].tolist(),
+                         velocity=self.gbuf[1].tolist(), effort=self.gbuf[2].tolist())
+        sec = int(t)
+        msg.header.stamp.sec, msg.header.stamp.nanosec = sec, int(round((t - sec) * 1e9))
+        msg.header.frame_id = "base_link"
+        self.pub.publish(msg)
+
     def run(self, cmds: np.ndarray, t0: float, period: float) -> CycleTimes:
         clock = time.perf_counter_ns
         times = CycleTimes(len(cmds))
@@ -129,14 +150,7 @@ class HandWritten:
             a = clock()
             # read
             if sim is None:
-                np.take(cmd, self.src, out=self.buf)
-                if np.isinf(self.buf).any():
-                    raise RuntimeError("inf")
-                self.buf += self.add
-                np.isnan(self.buf, out=self.nan)
-                np.take(st, self.dst, out=self.old)
-                np.copyto(self.buf, self.old, where=self.nan)
-                st[self.dst] = self.buf
+                self.mock_read()
             else:
                 for (slots, idx), src in zip(self.slots, self.sources):
                     st[slots] = src[idx]
@@ -146,14 +160,7 @@ class HandWritten:
             b = clock()
             # update: forward command + joint state message
             cmd[self.fwd_idx] = cmds[k]
-            for f in range(3):
-                np.take(st, self.gidx[f], out=self.gbuf[f])
-            msg = JointState(name=list(self.names), position=self.gbuf[0].tolist(),
-                             velocity=self.gbuf[1].tolist(), effort=self.gbuf[2].tolist())
-            sec = int(t)
-            msg.header.stamp.sec, msg.header.stamp.nanosec = sec, int(round((t - sec) * 1e9))
-            msg.header.frame_id = "base_link"
-            self.pub.publish(msg)
+            self.publish_joint_states(t)
             c = clock()
             # write
             if sim is not None:
@@ -169,15 +176,9 @@ JTC_JOINTS = ARM[:6]
 
 
 def jtc_params(rate: int) -> str:
-    return f"""
-controller_manager:
-  ros__parameters:
-    update_rate: {rate}
-    jtc: {{type: joint_trajectory_controller/JointTrajectoryController}}
-    jsb: {{type: joint_state_broadcaster/JointStateBroadcaster}}
-jtc: {{ros__parameters: {{joints: [{", ".join(JTC_JOINTS)}], command_interfaces: [position],
-                          state_interfaces: [position, velocity], allow_nonzero_velocity_at_trajectory_end: true}}}}
-"""
+    return params(rate, "jtc", "joint_trajectory_controller/JointTrajectoryController",
+                  f"joints: [{', '.join(JTC_JOINTS)}], command_interfaces: [position], "
+                  "state_interfaces: [position, velocity], allow_nonzero_velocity_at_trajectory_end: true")
 
 
 def quintic_points(seconds: float, step: float = 0.1):
@@ -270,14 +271,7 @@ class HandWrittenJTC(HandWritten):
         for k in range(cycles):
             t += period
             a = clock()
-            np.take(cmd, self.src, out=self.buf)        # read: the mock's mirror
-            if np.isinf(self.buf).any():
-                raise RuntimeError("inf")
-            self.buf += self.add
-            np.isnan(self.buf, out=self.nan)
-            np.take(st, self.dst, out=self.old)
-            np.copyto(self.buf, self.old, where=self.nan)
-            st[self.dst] = self.buf
+            self.mock_read()                            # read: the mock's mirror
             b = clock()
             np.take(st, self.pos_idx, out=self.q)       # update: JTC
             np.take(st, self.vel_idx, out=self.qd)
@@ -285,14 +279,7 @@ class HandWrittenJTC(HandWritten):
             nxt = self.sample(t - start + period)
             np.subtract(ref[0], self.q, out=self.err)
             cmd[self.cmd_idx] = nxt[0]
-            for f in range(3):                          # JSB
-                np.take(st, self.gidx[f], out=self.gbuf[f])
-            msg = JointState(name=list(self.names), position=self.gbuf[0].tolist(),
-                             velocity=self.gbuf[1].tolist(), effort=self.gbuf[2].tolist())
-            sec = int(t)
-            msg.header.stamp.sec, msg.header.stamp.nanosec = sec, int(round((t - sec) * 1e9))
-            msg.header.frame_id = "base_link"
-            self.pub.publish(msg)
+            self.publish_joint_states(t)                # JSB
             c = clock()
             d = clock()
             ns[0, k], ns[1, k], ns[2, k], ns[3, k] = b - a, c - b, d - c, d - a

@@ -178,21 +178,26 @@ def test_selected_axes_false_keeps_the_axis_stiff():
     assert abs(tip(q(cm))[2] - start[2]) < 2e-4
 
 
+def corrupt_sensor(cm, interface: str, value: float) -> None:
+    """From now on the F/T sensor's ``interface`` reads ``value`` (a broken sensor cable)."""
+    impl = cm.rm.components["UR5e"].impl
+    slot = impl.state_index[f"tcp_fts_sensor/{interface}"]
+    original = impl.read
+
+    def bad_read(time, period):
+        ret = original(time, period)
+        impl.state_values[slot] = value
+        return ret
+
+    impl.read = bad_read
+
+
 def test_non_finite_force_reading_returns_error_and_deactivates():
     sim = RobotSim("ur5e")
     cm = arm_cm({"adm": (ADM, compensated(sim))}, sim=sim)
     cm.switch_controller(["adm"], [], STRICT)
     cm.step(2)
-    slot = cm.rm.components["UR5e"].impl.state_index["tcp_fts_sensor/force.z"]
-    impl = cm.rm.components["UR5e"].impl
-    original = impl.read
-
-    def bad_read(time, period):
-        ret = original(time, period)
-        impl.state_values[slot] = math.nan
-        return ret
-
-    impl.read = bad_read
+    corrupt_sensor(cm, "force.z", math.nan)
     cm.step(2)
     assert cm.controllers["adm"].state == INACTIVE
     assert cm.log.count("force/torque reading") == 1
@@ -270,16 +275,7 @@ def test_hardware_error_deactivates_the_whole_chain():
     cm, sim = chain_cm()
     cm.switch_controller(["adm", "jtc"], [], STRICT)
     cm.step(2)
-    impl = cm.rm.components["UR5e"].impl
-    slot = impl.state_index["tcp_fts_sensor/torque.x"]
-    original = impl.read
-
-    def bad_read(time, period):
-        ret = original(time, period)
-        impl.state_values[slot] = math.inf
-        return ret
-
-    impl.read = bad_read
+    corrupt_sensor(cm, "torque.x", math.inf)
     cm.step(2)
     assert {n: s.state for n, s in cm.controllers.items()} == {"adm": INACTIVE, "jtc": INACTIVE}
 

@@ -140,7 +140,7 @@ def test_joint_state_broadcaster_all_interfaces_nan_for_missing_sorted_joints():
     assert len(got) == 3
     msg = got[-1]
     assert msg.name == ["joint1", "joint2"]                       # the sensor has no position/velocity/effort
-    assert list(msg.position) == [1.1, 2.2] and list(msg.velocity) == [0.0, 0.0]
+    assert msg.position.tolist() == [1.1, 2.2] and msg.velocity.tolist() == [0.0, 0.0]
     assert msg.effort[0] == 7.5 and math.isnan(msg.effort[1])     # joint2 has no effort state
     assert (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.header.frame_id) == (0, 30_000_000, "base_link")
 
@@ -154,7 +154,7 @@ def test_joint_state_broadcaster_joints_order_extra_joints_local_topic():
     cm.step(1)
     msg = got[-1]
     assert msg.name == ["joint2", "joint1", "gripper"]
-    assert list(msg.position) == [2.2, 1.1, 0.0] and math.isnan(msg.effort[0]) and msg.effort[2] == 0.0
+    assert msg.position.tolist() == [2.2, 1.1, 0.0] and math.isnan(msg.effort[0]) and msg.effort[2] == 0.0
 
 
 def test_joint_state_broadcaster_map_interface_to_joint_state():
@@ -163,7 +163,7 @@ def test_joint_state_broadcaster_map_interface_to_joint_state():
     got = listen(cm)
     cm.switch_controller(["jsb"], [], STRICT)
     cm.step(1)
-    assert list(got[-1].position) == [7.5] and math.isnan(got[-1].effort[0])
+    assert got[-1].position.tolist() == [7.5] and math.isnan(got[-1].effort[0])
 
 
 def test_joint_state_broadcaster_needs_joints_and_interfaces_together():
@@ -181,6 +181,6 @@ def test_broadcaster_and_forwarder_together_close_the_loop():
     cm.switch_controller(["fwd", "jsb"], [], STRICT)
     cm.controllers["fwd"].c.set_command([0.5, -0.5])
     cm.step(2)
-    assert list(got[-1].position) == [0.5, -0.5]
+    assert got[-1].position.tolist() == [0.5, -0.5]
     assert {c.name: c.state for c in cm.list_controllers()} == {"fwd": "active", "jsb": "active"}
     assert cm.controllers["jsb"].state == ACTIVE

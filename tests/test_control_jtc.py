@@ -551,3 +551,28 @@ def test_reactivation_holds_the_last_command_not_a_jump():
     assert cm.controllers["jtc"].state == ACTIVE
     assert positions(cm) == pytest.approx([2.0, 2.0, 2.0], abs=1e-12)
     assert np.all(np.isfinite(positions(cm)))
+
+
+def test_position_velocity_acceleration_commands_follow_the_quintic():
+    # mirrors the position+velocity+acceleration case of test_trajectory_controller.cpp's parameterized interfaces
+    cm = make_cm(commands=("position", "velocity", "acceleration"), hw_commands=("position", "velocity", "acceleration"))
+    cm.step(1)
+    # from rest at INITIAL to INITIAL + 1 in 1 s, rest to rest: the quintic 10s^3 - 15s^4 + 6s^5
+    publish(cm, traj([(1.0, tuple(p + 1.0 for p in INITIAL), (0.0,) * 3, (0.0,) * 3)]))
+    cm.step(50)   # the command is sampled one period ahead: s = 0.5 exactly
+    assert command(cm) == pytest.approx([p + 0.5 for p in INITIAL], abs=1e-9)
+    assert command(cm, "velocity") == pytest.approx([1.875] * 3, abs=1e-9)         # 30 s^2 - 60 s^3 + 30 s^4
+    assert command(cm, "acceleration") == pytest.approx([0.0] * 3, abs=1e-9)       # 60 s - 180 s^2 + 120 s^3
+
+
+def test_effort_only_closes_the_loop_with_the_pid():
+    # mirrors test_trajectory_controller.cpp: TEST_P(..., use_closed_loop_pid) for the effort interface
+    cm = make_cm(params={f"gains.{j}.p": "10.0" for j in JOINTS}, commands=("effort",), hw_commands=("effort",))
+    c = jtc(cm)
+    assert c.use_closed_loop_pid
+    cm.step(1)
+    publish(cm, traj([(0.5, (1.6, 2.1, 3.1))]))
+    cm.step(2)
+    eff = command(cm, "effort")
+    # reference one period into a 0.5 s linear segment from 1.1 to 1.6: error 0.01, effort 10 * 0.01
+    assert eff == pytest.approx([0.1, 0.0, 0.0], abs=1e-9)

@@ -313,28 +313,32 @@ def default_maker(spec, default, nested) -> tuple[Any, bool]:
 
 
 def _fast_check(spec, nested, var: str) -> str:
-    """The inline test that lets the common, already-correct value skip the converter."""
+    """The inline test that lets the common, already-correct value skip the converter.
+
+    It calls ``_typeof`` (the builtin ``type``), since a field may itself be named ``type``
+    (controller_manager_msgs/ControllerState) and shadow the builtin inside ``__init__``.
+    """
     if spec.is_array:
         if nested is None and spec.base_type in TYPECODES and not spec.is_fixed_array \
                 and spec.array_size is None:
-            return f"_pytype({var}) is not _array or {var}.typecode != {TYPECODES[spec.base_type]!r}"
+            return f"_typeof({var}) is not _array or {var}.typecode != {TYPECODES[spec.base_type]!r}"
         return "True"
     if nested is not None:
-        return f"_pytype({var}) is not _T_{spec.name}"
+        return f"_typeof({var}) is not _T_{spec.name}"
     kind = _pytype_name(spec.base_type)
     if spec.base_type == "float64":
-        return f"_pytype({var}) is not float"
+        return f"_typeof({var}) is not float"
     if kind == "str" and not spec.string_bound:
-        return f"_pytype({var}) is not str"
+        return f"_typeof({var}) is not str"
     if kind == "bool":
-        return f"_pytype({var}) is not bool"
+        return f"_typeof({var}) is not bool"
     return "True"
 
 
 def build_methods(cls, specs, rules: dict, defaults: dict) -> None:
     """Generate and install ``__init__``, ``__setattr__``, ``__eq__``, ``_copy`` on ``cls``."""
-    g: dict[str, Any] = {"_array": array.array, "_MISSING": _MISSING, "_new": object.__new__, "_pytype": type,
-                         "_cls": cls, "_np": np, "_ndarray": np.ndarray}
+    g: dict[str, Any] = {"_array": array.array, "_MISSING": _MISSING, "_new": object.__new__,
+                         "_cls": cls, "_np": np, "_ndarray": np.ndarray, "_typeof": type}
     params, body, copy_lines, eq_terms = [], [], [], []
     setters, converters = {}, {}
     for spec in specs:

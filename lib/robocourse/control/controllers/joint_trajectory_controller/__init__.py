@@ -165,7 +165,6 @@ class JointTrajectoryController(ControllerInterface):
         self.last_commanded = Sample(dof)
         self.last_commanded_time = 0.0
         self._traj_time = 0.0
-        self.update_period = 1.0 / self.update_rate if self.update_rate else 0.0
         self.interpolate = p.interpolation_method == "splines"
         self._wrap = np.array([p.gains.get_entry(j).angle_wraparound for j in self._joints], dtype=bool)
         self._read_dynamic_params()
@@ -216,6 +215,7 @@ class JointTrajectoryController(ControllerInterface):
     # --- lifecycle ----------------------------------------------------------------------------------
     def on_activate(self, previous_state):
         dof = self.dof
+        self.update_period = 1.0 / self.update_rate   # the rate the manager settled on at configure
         self._cmd = {iface: InterfaceGroup(self.command_interfaces[k * dof:(k + 1) * dof])
                      for k, iface in enumerate(self._cmd_ifaces)}
         self._state = {iface: InterfaceGroup(self.state_interfaces[k * dof:(k + 1) * dof])
