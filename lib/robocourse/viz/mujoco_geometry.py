@@ -2,7 +2,8 @@
 
 The counterpart of Drake's MeshcatVisualizer for a MuJoCo ``MjModel``: every visible geom
 (box, sphere, capsule, cylinder, ellipsoid, plane, mesh) becomes a node ``prefix/<geom>``;
-``update(data)`` sets each moving geom's world pose from ``data.geom_xpos``/``geom_xmat``
+``update(data)`` sets each moving geom's world pose (geoms on bodies welded to the world are
+placed once) from ``data.geom_xpos``/``geom_xmat``
 (inside a recording, into the current animation frame).
 """
 
@@ -49,7 +50,7 @@ class MujocoDrawer:
                 scene.mesh(path, model.mesh_vert[v0:v0 + nv], model.mesh_face[f0:f0 + nf], rgba)
             else:
                 continue  # heightfields, SDFs: not drawn
-            moving = model.geom_bodyid[i] != 0
+            moving = model.body_weldid[model.geom_bodyid[i]] != 0   # welded to the world (fixed bodies too): static
             (self.paths if moving else self._static).append((i, path))
 
     def update(self, data) -> None:

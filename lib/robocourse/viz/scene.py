@@ -212,6 +212,20 @@ class Scene:
         """Place node ``path`` at ``position`` with a (w, x, y, z) quaternion or a 3x3 rotation."""
         self.set_transform(path, tf.transform(position, quat_wxyz, rotation))
 
+    def set_camera(self, position, target=(0.0, 0.0, 0.0)):
+        """Look at ``target`` from ``position`` (both m, world frame, z up).
+
+        Meshcat's camera orbits the origin of ``/Cameras/default``; its position lives in the
+        y-up ``rotated`` frame below it, so world (dx, dy, dz) is (dx, dz, -dy) there.
+        """
+        t = tf._vec(target, 3, "camera target")
+        d = tf._vec(position, 3, "camera position") - t
+        if not np.linalg.norm(d) > 0:
+            raise ValueError(f"camera position {tuple(position)} equals the target: step back, e.g. position=(2, -2, 1.5)")
+        self._send(self._meshcat.commands.SetTransform(tf.transform(t), self._path("/Cameras/default")))
+        self._send(self._meshcat.commands.SetProperty("position", [float(d[0]), float(d[2]), float(-d[1])],
+                                                      self._path("/Cameras/default/rotated/<object>")))
+
     def start_recording(self, fps: int | None = None):
         """Start recording poses into an animation (Drake: ``StartRecording``)."""
         self.fps = int(fps or self.fps)

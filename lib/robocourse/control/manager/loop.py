@@ -178,9 +178,10 @@ def run_realtime(cm, seconds: float, wait: WaitStrategy | None = None, settings:
         cm.rt_thread_running = False
         cpu_s, wall_s = _time.process_time() - cpu0, _time.perf_counter() - wall0
         if executor is not None:
+            nodes = executor.get_nodes()     # shutdown() detaches them: hand them back to the manager's executor
             executor.shutdown()
             thread.join(timeout=2.0)
-            for node in executor.get_nodes():
+            for node in nodes:
                 cm.executor.add_node(node)
         with contextlib.suppress(Exception):
             cm._fail_pending_switch()
