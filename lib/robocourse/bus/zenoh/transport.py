@@ -49,6 +49,7 @@ def _config(mode, connect, listen, timeout):
     conf.insert_json5("connect/endpoints", _json_list(connect))
     conf.insert_json5("listen/endpoints", _json_list(listen))
     conf.insert_json5("scouting/multicast/enabled", "false")
+    conf.insert_json5("timestamping/enabled", "true")   # as rmw_zenoh (advanced pub/sub needs it)
     if connect and mode != "router":
         conf.insert_json5("connect/exit_on_failure", "true")
         conf.insert_json5("connect/timeout_ms", str(int(timeout * 1000)))
