@@ -67,7 +67,17 @@ class _ServiceEntry:
 class Context:
     """A self-contained ROS graph. ``ctx.create_node("talker")`` makes a node on it."""
 
-    def __init__(self, *, use_sim_time: bool = False, start_time: float = 0.0):
+    def __init__(self, *, use_sim_time: bool = False, start_time: float = 0.0,
+                 transport: str | None = None, **transport_options):
+        """``transport="zenoh"`` (with ``domain_id``, ``connect``, ``listen``, ``mode``) also
+        puts the graph on the wire in rmw_zenoh's format: see
+        :mod:`robocourse.bus.zenoh.transport`. Without it everything stays in-process."""
+        if transport not in (None, "zenoh"):
+            raise ValueError(f"Context(transport={transport!r}): the only transport is 'zenoh' "
+                             f"(or None for in-process only)")
+        if transport is None and transport_options:
+            raise TypeError(f"Context got {sorted(transport_options)} without transport='zenoh'; "
+                            f"these options configure the zenoh transport")
         if not isinstance(use_sim_time, bool):
             raise TypeError(f"Context: use_sim_time={use_sim_time!r} must be True or False")
         _args.seconds(start_time, "Context(start_time)", name="start_time")
@@ -87,6 +97,11 @@ class Context:
         self._graph_listeners = []
         self._on_shutdown = []
         self.graph_version = 0
+        self.transport = None
+        if transport == "zenoh":
+            from robocourse.bus.zenoh.transport import ZenohTransport
+
+            self.transport = ZenohTransport(self, **transport_options)
 
     # ----------------------------------------------------------------- lifecycle
     def ok(self) -> bool:
@@ -218,6 +233,8 @@ class Context:
         pub._links = links
         pub._pairs = pairs
         pub._deliver = tuple(pairs.values())
+        if pub._remote is not None:         # the zenoh transport's put (other processes)
+            pub._deliver += (pub._remote,)
 
     # ----------------------------------------------------------------- modelled links
     def set_link(self, *, topic: str | None = None, publisher_node: str | None = None,

@@ -55,6 +55,12 @@ def _hidden(name: str) -> bool:
     return any(part.startswith("_") for part in name.split("/") if part)
 
 
+def _remote(ctx, kind):
+    """Endpoints other processes announced (liveliness tokens) when ctx has a zenoh transport."""
+    t = ctx.transport
+    return t.remote_entities(kind) if t is not None else []
+
+
 def _visible_nodes(ctx, include_hidden=False):
     return [n for n in ctx.nodes if include_hidden or not n.get_name().startswith("_")]
 
@@ -65,8 +71,10 @@ def _visible_nodes(ctx, include_hidden=False):
 def topic_list(ctx, *, show_types: bool = True, include_hidden: bool = False, quiet: bool = False):
     """``ros2 topic list -t``: [(name, [type])] sorted by name."""
     ctx = _ctx(ctx)
-    rows = sorted((t.name, [t.msg_type._type]) for t in ctx._topics.values()
-                  if (t.pubs or t.subs) and (include_hidden or not _hidden(t.name)))
+    types = {t.name: {t.msg_type._type} for t in ctx._topics.values() if t.pubs or t.subs}
+    for e in _remote(ctx, "MP") + _remote(ctx, "MS"):
+        types.setdefault(e.topic, set()).add(e.type_name)
+    rows = sorted((n, sorted(ts)) for n, ts in types.items() if include_hidden or not _hidden(n))
     _out("\n".join(f"{n} [{', '.join(ts)}]" if show_types else n for n, ts in rows), quiet)
     return rows
 
@@ -75,7 +83,10 @@ def topic_info(ctx, topic: str, *, verbose: bool = False, quiet: bool = False) -
     """``ros2 topic info [-v]``: type, counts and (verbose) every endpoint with its QoS."""
     ctx = _ctx(ctx)
     t = ctx._topics.get(topic)
-    if t is None or not (t.pubs or t.subs):
+    pubs, subs = (t.pubs, t.subs) if t is not None else ([], [])
+    rpubs = [e for e in _remote(ctx, "MP") if e.topic == topic]
+    rsubs = [e for e in _remote(ctx, "MS") if e.topic == topic]
+    if not (pubs or subs or rpubs or rsubs):
         text = f"Unknown topic '{topic}'"
         _out(text, quiet)
         return {"type": None, "publishers": [], "subscriptions": []}
@@ -85,9 +96,15 @@ def topic_info(ctx, topic: str, *, verbose: bool = False, quiet: bool = False) -
                 "topic_type": e.msg_type._type, "endpoint_type": kind, "qos": e.qos_profile,
                 "entity": e}
 
-    info = {"type": t.msg_type._type,
-            "publishers": [ep(p, "PUBLISHER") for p in t.pubs],
-            "subscriptions": [ep(s, "SUBSCRIPTION") for s in t.subs]}
+    def remote(e, kind):   # another process (zenoh liveliness token)
+        return {"node_name": e.node_name, "node_namespace": e.namespace,
+                "topic_type": e.type_name, "endpoint_type": kind, "qos": e.qos, "entity": e}
+
+    info = {"type": t.msg_type._type if pubs or subs else (rpubs or rsubs)[0].type_name,
+            "publishers": [ep(p, "PUBLISHER") for p in pubs]
+            + [remote(e, "PUBLISHER") for e in rpubs],
+            "subscriptions": [ep(s, "SUBSCRIPTION") for s in subs]
+            + [remote(e, "SUBSCRIPTION") for e in rsubs]}
     lines = [f"Type: {info['type']}", ""]
 
     def block(items):
@@ -96,11 +113,11 @@ def topic_info(ctx, topic: str, *, verbose: bool = False, quiet: bool = False) -
                           f"Topic type: {e['topic_type']}", f"Endpoint type: {e['endpoint_type']}",
                           "QoS profile:", e["qos"].ros_text("  "), ""])
 
-    lines.append(f"Publisher count: {len(t.pubs)}")
+    lines.append(f"Publisher count: {len(info['publishers'])}")
     lines.append("")
     if verbose:
         block(info["publishers"])
-    lines.append(f"Subscription count: {len(t.subs)}")
+    lines.append(f"Subscription count: {len(info['subscriptions'])}")
     if verbose:
         lines.append("")
         block(info["subscriptions"])
@@ -111,9 +128,10 @@ def topic_info(ctx, topic: str, *, verbose: bool = False, quiet: bool = False) -
 def _adapted_qos(ctx, topic) -> QoSProfile:
     """What ros2 topic echo/rosbag2 do: match the publishers' reliability and durability."""
     t = ctx._topics.get(topic)
-    pubs = t.pubs if t else []
-    reliable = bool(pubs) and all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in pubs)
-    latched = bool(pubs) and all(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in pubs)
+    qos = [p.qos_profile for p in (t.pubs if t else [])] + \
+        [e.qos for e in _remote(ctx, "MP") if e.topic == topic]
+    reliable = bool(qos) and all(q.reliability == ReliabilityPolicy.RELIABLE for q in qos)
+    latched = bool(qos) and all(q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in qos)
     return QoSProfile(history=HistoryPolicy.KEEP_ALL,
                       reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
                       durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
@@ -122,6 +140,11 @@ def _adapted_qos(ctx, topic) -> QoSProfile:
 def _topic_type(ctx, topic):
     t = ctx._topics.get(topic)
     if t is None or not (t.pubs or t.subs):
+        from robocourse.msgs import REGISTRY
+
+        for e in _remote(ctx, "MP") + _remote(ctx, "MS"):
+            if e.topic == topic and e.type_name in REGISTRY:
+                return REGISTRY[e.type_name]
         raise ValueError(f"topic {topic!r} does not exist (yet); topics: "
                          f"{[n for n, _ in topic_list(ctx, quiet=True)]}")
     return t.msg_type
@@ -302,7 +325,9 @@ def topic_pub(ctx, topic: str, msg_type, values: dict | None = None, *, qos=10,
 def node_list(ctx, *, include_hidden: bool = False, quiet: bool = False) -> list[str]:
     """``ros2 node list`` (sorted fully qualified names; warns about duplicates like ROS)."""
     ctx = _ctx(ctx)
-    names = sorted(n.get_fully_qualified_name() for n in _visible_nodes(ctx, include_hidden))
+    names = sorted([n.get_fully_qualified_name() for n in _visible_nodes(ctx, include_hidden)]
+                   + [e.node_fqn for e in _remote(ctx, "NN")
+                      if include_hidden or not e.node_name.startswith("_")])
     text = "\n".join(names)
     if len(set(names)) != len(names):
         text = ("WARNING: Be aware that there are nodes in the graph that share an exact name, "
@@ -353,8 +378,10 @@ def service_list(ctx, *, show_types: bool = True, include_hidden: bool = False,
                  quiet: bool = False):
     """``ros2 service list -t`` (action internals hidden, as ROS does)."""
     ctx = _ctx(ctx)
-    rows = sorted((s.name, [s.srv_type._type]) for s in ctx._services.values()
-                  if s.servers and (include_hidden or not _hidden(s.name)))
+    types = {s.name: {s.srv_type._type} for s in ctx._services.values() if s.servers}
+    for e in _remote(ctx, "SS"):
+        types.setdefault(e.topic, set()).add(e.type_name)
+    rows = sorted((n, sorted(ts)) for n, ts in types.items() if include_hidden or not _hidden(n))
     _out("\n".join(f"{n} [{', '.join(t)}]" if show_types else n for n, t in rows), quiet)
     return rows
 

@@ -46,6 +46,7 @@ class Publisher:
         self._deliver = ()              # one delivery per matched subscription (tuple: fast)
         self._pairs = {}                # subscription -> its delivery (context._rewire)
         self._links = {}                # subscription -> LinkDelivery on a modelled link
+        self._remote = None             # the zenoh transport's sender, when there is one
         self._destroyed = False
         self.counts = _Counts()
         self.publish_count = 0

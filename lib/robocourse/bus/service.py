@@ -134,7 +134,9 @@ class Client(_Queued):
         return self.srv_name
 
     def service_is_ready(self) -> bool:
-        return self._node.context._server_for(self.srv_name) is not None
+        ctx = self._node.context
+        return ctx._server_for(self.srv_name) is not None or (
+            ctx.transport is not None and ctx.transport.has_server(self.srv_name, self.srv_type))
 
     def wait_for_service(self, timeout_sec: float | None = None) -> bool:
         """True once a server exists. In-process discovery is instant, so this only waits if
@@ -161,7 +163,13 @@ class Client(_Queued):
             raise TypeError(f"client of {self.srv_name!r} sends {self.srv_type._type} requests, got "
                             f"{type(request).__name__}; use {self.srv_type.__name__}.Request(...)")
         future = Future(executor=self._executor)
-        server = self._node.context._server_for(self.srv_name)
+        ctx = self._node.context
+        server = ctx._server_for(self.srv_name)
+        if server is None and ctx.transport is not None and \
+                ctx.transport.has_server(self.srv_name, self.srv_type):
+            self._pending.add(future)
+            ctx.transport.call(self, request, future)     # another process answers
+            return future
         if server is None:
             self._node.get_logger().warning(
                 f"request to service '{self.srv_name}' sent while no server exists: it will not "

@@ -1,0 +1,89 @@
+"""A second process for chapter 7, the tests and the benchmark: ``python -m
+robocourse.bus.zenoh.peer ROLE --connect tcp/127.0.0.1:7447``.
+
+Roles (each prints ``READY`` once its endpoints are declared, then runs until killed or
+``--count`` is reached):
+
+- ``talker``: node ``/talker`` publishes ``std_msgs/String`` "hello N" on ``/chatter``
+  (depth 7) every ``--period`` seconds and serves ``/add_two_ints``
+  (``example_interfaces/AddTwoInts``), like ROS 2's demo_nodes talker and add_two_ints_server.
+- ``echo``: node ``/echo`` republishes every message of ``--type`` from ``/ping`` on ``/pong``
+  (the benchmark's and the split pendulum's other half).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import threading
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m robocourse.bus.zenoh.peer")
+    ap.add_argument("role", choices=["talker", "echo"])
+    ap.add_argument("--connect", default="tcp/127.0.0.1:7447")
+    ap.add_argument("--domain-id", type=int, default=0)
+    ap.add_argument("--period", type=float, default=0.01)
+    ap.add_argument("--count", type=int, default=0, help="stop after N messages (0: never)")
+    ap.add_argument("--type", default="std_msgs/msg/String")
+    ap.add_argument("--best-effort", action="store_true")
+    a = ap.parse_args(argv)
+
+    from robocourse.bus.context import Context
+    from robocourse.bus.executors import SingleThreadedExecutor
+    from robocourse.bus.qos import QoSProfile, ReliabilityPolicy
+    from robocourse.msgs import REGISTRY
+    from robocourse.msgs.example_interfaces import AddTwoInts
+    from robocourse.msgs.std_msgs import String
+
+    ctx = Context(transport="zenoh", domain_id=a.domain_id, connect=[a.connect])
+    ex = SingleThreadedExecutor(context=ctx)
+    qos = QoSProfile(depth=7, reliability=ReliabilityPolicy.BEST_EFFORT if a.best_effort
+                     else ReliabilityPolicy.RELIABLE)
+    if a.role == "talker":
+        node = ctx.create_node("talker")
+        pub = node.create_publisher(String, "/chatter", qos)
+
+        def add(req, resp):
+            resp.sum = req.a + req.b
+            return resp
+        node.create_service(AddTwoInts, "/add_two_ints", add)
+        msg, n = String(), [0]
+
+        def tick():
+            n[0] += 1
+            msg.data = f"hello {n[0]}"
+            pub.publish(msg)
+            if a.count and n[0] >= a.count:
+                ctx.try_shutdown()
+        node.create_timer(a.period, tick)
+    else:
+        node = ctx.create_node("echo")
+        t = REGISTRY[a.type]
+        pub = node.create_publisher(t, "/pong", qos)
+        node.create_subscription(t, "/ping", pub.publish, qos)
+    ex.add_node(node)
+    print("READY", ctx.transport.zid, flush=True)
+    threading.Thread(target=_exit_with_parent, daemon=True).start()
+    try:
+        while ctx.ok():
+            ex.spin_once(timeout_sec=0.1)
+    except KeyboardInterrupt:
+        pass
+    ctx.try_shutdown()
+    return 0
+
+
+def _exit_with_parent():
+    """Stop when our stdin closes (the parent died or closed the pipe): no orphans."""
+    try:
+        sys.stdin.read()
+    except Exception:  # noqa: BLE001
+        pass
+    import os
+
+    os._exit(0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
