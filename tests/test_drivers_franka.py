@@ -66,7 +66,7 @@ def test_position_control_moves_joint_to_the_commanded_ramp_end(box):
         assert abs(last.q[0] - (q0[0] + 0.3)) < 0.01
         assert wait_for(lambda: robot.read_once().robot_mode == "idle")   # motion_finished ended the motion
         stats = robot.box_stats()
-        assert stats["commands_ok"] + stats["missed"] == stats["ticks_moving"]
+        assert stats["commands_ok"] + stats.get("missed", 0) == stats["ticks_moving"]  # a zero counter is absent
         # every command sent is accounted for: applied, late (after the next tick) or replaced by a later one
         assert stats["commands_ok"] + stats.get("late", 0) + stats.get("duplicates", 0) == 1500
 

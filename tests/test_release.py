@@ -26,6 +26,8 @@ SHARED_LINES = {
     "clock.sleep_until_ns(deadline)": {"lib/robocourse/rt/checks.py"},
     "self.stopped = False": {"lib/robocourse/mycar/drivers.py"},
     "self.stopped = True": {"lib/robocourse/mycar/drivers.py"},
+    # a QoS keyword argument the zenoh tests also pass (not the exercise's answer on its own)
+    "durability=DurabilityPolicy.TRANSIENT_LOCAL),": {"tests/test_zenoh_wire.py"},
     # the library's TextbookPID, which chapter 2 teaches (release.KNOWN_OVERLAPS says more)
     "self.kp, self.ki, self.kd, self.setpoint = kp, ki, kd, setpoint": {"lib/robocourse/pendulum/pid.py"},
     "self.integral = 0.0": {"lib/robocourse/pendulum/pid.py"},
