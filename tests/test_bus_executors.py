@@ -309,8 +309,14 @@ def test_multi_threaded_executor_spins_again_after_an_early_return():
     ctx.log_to_stderr = False
     node = ctx.create_node("n")
     pub = node.create_publisher(Int64, "t", 10)
-    got = []
-    node.create_subscription(Int64, "t", lambda m: got.append(m.data), 10)
+    got, all_three = [], Future()
+
+    def on_msg(m):
+        got.append(m.data)
+        if len(got) == 3:
+            all_three.set_result(True)
+
+    node.create_subscription(Int64, "t", on_msg, 10)
     ex = MultiThreadedExecutor(num_threads=2, context=ctx)
     ex.add_node(node)
     for k in range(3):
@@ -318,7 +324,7 @@ def test_multi_threaded_executor_spins_again_after_an_early_return():
         ex.create_task(lambda f=f, k=k: (pub.publish(Int64(data=k)), f.set_result(k)))
         ex.spin_until_future_complete(f, timeout_sec=5.0)
         assert f.result() == k
-    ex.spin_for(0.05)
+    ex.spin_until_future_complete(all_three, timeout_sec=10.0)   # no fixed wall-time window to miss
     assert got == [0, 1, 2]
 
 

@@ -328,6 +328,18 @@ def test_update_overrun_is_logged_once_and_counted():
     assert cm.log.count("Controller 'slow' overran its period") == 1
 
 
+def test_update_overrun_warning_obeys_overruns_print_warnings_false():
+    # upstream's `overruns.print_warnings` (ros2_control PR #2546) silences the warning, not the count
+    cm = make_cm(params={"controller_manager": {"overruns.print_warnings": False}},
+                 update_rate=1000)
+    slow = add(cm, "slow", TestController([P1]))
+    cm.switch_controller(["slow"], [], STRICT)
+    slow.sleep_s = 0.002
+    cm.step(2)
+    assert cm.controllers["slow"].overruns == 2
+    assert cm.log.count("overran its period") == 0
+
+
 # --- faults: hardware --------------------------------------------------------------------------------------
 class Faulty(SystemInterface):
     """read()/write() results chosen by the test."""

@@ -238,9 +238,18 @@ class Page:
                     raise RuntimeError(f"{method}: {msg['error']}")
                 return msg["result"]
 
+    EMPTY = {"files": [], "tabs": [], "kernels": [], "toasts": [], "text": ""}
+
     def state(self) -> dict:
-        result = self.call("Runtime.evaluate", expression=self.STATE, returnByValue=True)["result"]
-        return result.get("value") or {"files": [], "tabs": [], "kernels": [], "toasts": [], "text": ""}
+        try:
+            result = self.call("Runtime.evaluate", expression=self.STATE, returnByValue=True)["result"]
+        except RuntimeError as exc:
+            # a page that is navigating or reloading has no context to evaluate in yet (Chrome says
+            # "Inspected target navigated or closed" / "Cannot find context"): nothing shown so far
+            if "navigated or closed" in str(exc) or "Cannot find context" in str(exc):
+                return dict(self.EMPTY)
+            raise
+        return result.get("value") or dict(self.EMPTY)
 
     def wait_for(self, ready, timeout: float) -> tuple[dict, float]:
         """Poll the page until ``ready(state)``; return the state and the seconds it took."""

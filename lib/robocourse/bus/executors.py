@@ -595,16 +595,19 @@ class MultiThreadedExecutor(Executor):
                         self._cond.wait(0.01)
                     continue
                 self._running += 1
-            ent, work = item
-            try:
-                self._run(ent, work)
-            finally:
-                with self._cond:
-                    self._running -= 1
-                    g = ent.callback_group
-                    if g is not None:
-                        g.ending_execution(ent)
-                    self._cond.notify_all()
+            self._run_claimed(*item)
+
+    def _run_claimed(self, ent, work):
+        """Run one item taken under the lock (counted in ``_running``), then release its group."""
+        try:
+            self._run(ent, work)
+        finally:
+            with self._cond:
+                self._running -= 1
+                g = ent.callback_group
+                if g is not None:
+                    g.ending_execution(ent)
+                self._cond.notify_all()
 
     def _spin_loop(self, until_ns, done_flag=lambda: False, return_when_done=False):
         self._enter()
@@ -643,16 +646,7 @@ class MultiThreadedExecutor(Executor):
                 if item is None:
                     return
                 self._running += 1
-            ent, work = item
-            try:
-                self._run(ent, work)
-            finally:
-                with self._cond:
-                    self._running -= 1
-                    g = ent.callback_group
-                    if g is not None:
-                        g.ending_execution(ent)
-                    self._cond.notify_all()
+            self._run_claimed(*item)
         finally:
             self._leave()
 

@@ -779,7 +779,7 @@ class ControllerManager:
                 spec.max_update_ns = took
             if took * spec.c.update_rate > 1_000_000_000:
                 spec.overruns += 1
-                if spec.overruns == 1:
+                if spec.overruns == 1 and self.params.overruns.print_warnings:
                     self.logger.warning(f"Controller '{spec.name}' overran its period: update took {took / 1e6:.3f} ms, "
                                         f"period {1e3 / spec.c.update_rate:.3f} ms (counted in its overruns; it stays "
                                         "active)")
