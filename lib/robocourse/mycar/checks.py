@@ -1,7 +1,9 @@
 """Checks for chapter 3's exercises (solutions/03_mycar_exercises.ipynb), as probe + judge.
 
-Fresh twists, wheel bases and watchdog timings every run; the judges compare with
-``mycar.kinematics`` and with the watchdog's stated rule (trip once, re-arm on feed).
+Fresh twists, wheel bases and watchdog timings every run; the judges compare with the
+integrated drive formula and with the watchdog's stated rule (trip once, re-arm on feed). The
+drive formula itself is derived in the chapter, so it is graded inside the driver node, not as a
+function of its own.
 
 The three node checks run the student's node class on the bus, in simulated time, against
 scripted peers built inside the probe (a /cmd_vel publisher, a service client, an action
@@ -14,7 +16,7 @@ from __future__ import annotations
 import math
 
 from robocourse.grading import CheckFailed, Failures, register
-from robocourse.grading.probes import call, number, plain
+from robocourse.grading.probes import number, plain
 
 from . import kinematics as kin
 
@@ -30,60 +32,6 @@ QUIZ = {
     "follow a 20-waypoint path": ("action", "long task with feedback (current waypoint) and cancel"),
     "emergency stop button state": ("topic", "a state everyone must see continuously, no round trip"),
 }
-
-
-def _kin_inputs(rng):
-    cases = [[0.2, 1.0, 0.15]]
-    cases += [[float(rng.uniform(-1, 1)), float(rng.uniform(-5, 5)), float(rng.uniform(0.05, 0.5))] for _ in range(50)]
-    return cases
-
-
-def _kin_probe(inputs, inverse_kinematics, forward_kinematics):
-    out = []
-    for v, w, b in inputs:
-        inv = call(inverse_kinematics, v, w, b)
-        fwd = call(forward_kinematics, *inv["value"], b) if isinstance(inv.get("value"), list) \
-            and len(inv["value"]) == 2 else {"raised": "skipped", "message": "inverse_kinematics failed"}
-        out.append({"inverse": inv, "forward": fwd})
-    return out
-
-
-def _pair(got) -> tuple[float, float] | None:
-    v = got.get("value")
-    if not isinstance(v, list) or len(v) != 2:
-        return None
-    return number(v[0]), number(v[1])
-
-
-@register("ch03.kinematics", weight=2, time_limit=10, uses=("inverse_kinematics", "forward_kinematics"),
-          probe=_kin_probe, inputs=_kin_inputs,
-          references=("robocourse.mycar.kinematics:twist_to_wheel_speeds",
-                      "robocourse.mycar.kinematics:wheel_speeds_to_twist"))
-def check_kinematics(inputs, outputs):
-    """inverse/forward differential-drive kinematics agree with the model and with each other."""
-    f = Failures()
-    for (v, w, b), got in zip(inputs, outputs, strict=True):
-        inv = _pair(got["inverse"])
-        ref = kin.twist_to_wheel_speeds(v, w, kin.DiffDriveGeometry(wheel_base=b))
-        if inv is None:
-            f.add(f"inverse_kinematics({v:.3f}, {w:.3f}, {b:.3f}) must return (left, right); got "
-                  f"{got['inverse'].get('value', got['inverse'].get('raised'))!r}")
-            break
-        if not (math.isclose(inv[0], ref[0], abs_tol=1e-9) and math.isclose(inv[1], ref[1], abs_tol=1e-9)):
-            hint = ""
-            if math.isclose(inv[0], ref[1], abs_tol=1e-9) and math.isclose(inv[1], ref[0], abs_tol=1e-9):
-                hint = ": left and right swapped (left is the inner wheel when turning left)"
-            f.add(f"inverse_kinematics({v:.3f}, {w:.3f}, {b:.3f}) = ({inv[0]:.4f}, {inv[1]:.4f}), expected "
-                  f"({ref[0]:.4f}, {ref[1]:.4f}): each wheel moves at v -+ w * wheel_base / 2{hint}")
-            break
-    for (v, w, _b), got in zip(inputs, outputs, strict=True):
-        fwd = _pair(got["forward"]) if isinstance(got["forward"], dict) else None
-        if fwd is None or not (math.isclose(fwd[0], v, abs_tol=1e-9) and math.isclose(fwd[1], w, abs_tol=1e-9)):
-            shown = f"({fwd[0]:.4f}, {fwd[1]:.4f})" if fwd else repr(got["forward"].get("raised"))
-            f.add(f"forward(inverse(v={v:.3f}, w={w:.3f})) gave {shown}: the round trip must return the same twist; "
-                  "w = (right - left) / wheel_base")
-            break
-    return f.done(f"{len(inputs)} random round trips exact")
 
 
 def _dog_inputs(rng):
