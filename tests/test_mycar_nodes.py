@@ -190,3 +190,86 @@ def test_terminal_teleop_from_a_pipe():
     with pytest.raises(ValueError, match="unknown teleop key"):
         node.press("z")
     ctx.shutdown()
+
+
+def _static_tf(node, parent, child, x, y, yaw):
+    from robocourse.bus import DurabilityPolicy, QoSProfile
+    from robocourse.msgs.geometry_msgs import TransformStamped
+    from robocourse.msgs.tf2_msgs import TFMessage
+
+    pub = node.create_publisher(TFMessage, "/tf_static", QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    t = TransformStamped()
+    t.header.frame_id, t.child_frame_id = parent, child
+    t.transform.translation.x, t.transform.translation.y = x, y
+    t.transform.rotation.z, t.transform.rotation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+    pub.publish(TFMessage(transforms=[t]))
+    return pub
+
+
+@pytest.mark.parametrize("frame, words", [("map", "no transform odom <- map"), ("", "frame_id is empty")])
+def test_navigation_rejects_a_goal_in_a_frame_it_cannot_transform(car, frame, words):
+    goal = goal_for(0.5, 0.0)
+    goal.target_pose.header.frame_id = frame
+    handle, _, _ = _navigate(car, goal)
+    assert not handle.accepted and words in car.navigation.rejections[-1]
+    assert car.driver.commands_received == 0  # nothing was driven
+
+
+def test_navigation_transforms_a_map_goal_through_tf_static(car):
+    from robocourse.msgs.action_msgs import GoalStatus
+
+    # map -> odom: odom's origin sits at (1, 0) in map, turned 90 degrees; map (1, 0.6) is odom (0.6, 0)
+    _static_tf(car.client, "map", "odom", 1.0, 0.0, math.pi / 2)
+    car.executor.spin_for(0.1)
+    goal = goal_for(1.0, 0.6, math.pi / 2)
+    goal.target_pose.header.frame_id = "map"
+    handle, res, _ = _navigate(car, goal)
+    assert handle.accepted and res.status == GoalStatus.STATUS_SUCCEEDED
+    x, y, yaw = car.driver.pose
+    assert math.hypot(x - 0.6, y - 0.0) <= 0.05 + 1e-6 and abs(math.remainder(yaw, 2 * math.pi)) <= 0.1 + 1e-6
+
+
+def test_navigation_goal_relative_to_base_link_uses_the_driver_tf(car):
+    drive(car, 0.0, 1.5, 1.0)  # turn left about 1 rad first
+    car.executor.spin_for(0.5)
+    x0, y0, yaw0 = car.driver.pose
+    goal = goal_for(0.4, 0.0)  # 40 cm straight ahead of the car, wherever it points
+    goal.target_pose.header.frame_id = "base_link"
+    _, res, _ = _navigate(car, goal)
+    assert res.result.success
+    x, y, _ = car.driver.pose
+    assert math.hypot(x - (x0 + 0.4 * math.cos(yaw0)), y - (y0 + 0.4 * math.sin(yaw0))) < 0.06
+
+
+def test_navigation_reports_the_true_error_beside_the_odometry_one(car):
+    _, res, _ = _navigate(car, goal_for(1.0, 0.5))
+    r = res.result
+    tx, ty, _ = car.simulator.car.pose()
+    ox, oy, _ = car.driver.pose
+    assert r.success and r.position_error == pytest.approx(math.hypot(ox - 1.0, oy - 0.5), abs=1e-9)
+    # /ground_truth is published every 4th 5 ms simulator step: at most 20 ms old, the car stopped meanwhile
+    assert r.true_position_error == pytest.approx(math.hypot(tx - 1.0, ty - 0.5), abs=0.01)
+    assert r.true_position_error > r.position_error  # drift: the car is not where odometry says
+    assert "by odometry" in r.message and "true pose" in r.message
+
+
+def test_navigation_without_ground_truth_says_so():
+    c = launch(overrides={"driver_node": {"driver": "simulated"}})
+    c.client = c.context.create_node("test_client")
+    c.executor.add_node(c.client)
+    _, res, _ = _navigate(c, goal_for(0.3, 0.0))
+    assert res.result.success and math.isnan(res.result.true_position_error)
+    assert "no /ground_truth" in res.result.message
+    c.context.try_shutdown()
+
+
+def test_tf_buffer_chains_and_inverts():
+    from robocourse.mycar.navigation import TfBuffer2D, compose, invert
+
+    a = (1.0, 2.0, 0.7)
+    assert compose(a, invert(a)) == pytest.approx((0.0, 0.0, 0.0), abs=1e-12)
+    buf = TfBuffer2D()
+    buf.edges = {("map", "odom"): (1.0, 0.0, math.pi / 2), ("odom", "base_link"): (0.5, 0.0, 0.0)}
+    assert buf.lookup("map", "base_link") == pytest.approx((1.0, 0.5, math.pi / 2))
+    assert buf.lookup("base_link", "map") == pytest.approx(invert((1.0, 0.5, math.pi / 2)))
+    assert buf.lookup("odom", "camera") is None

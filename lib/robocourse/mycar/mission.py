@@ -75,7 +75,7 @@ def run_mission(record_path: str | None = None, quiet: bool = False, config=None
     rep.led_invalid_ok = bool(resp and resp.success)
 
     say("\n# 3. $ ros2 action send_goal /navigate_to_pose mycar_msgs/action/NavigateToPose ... --feedback")
-    target = {"target_pose": {"pose": {"position": {"x": 1.0, "y": 0.6}, "orientation": {"w": 1.0}}}}
+    target = {"target_pose": {"header": {"frame_id": "odom"}, "pose": {"position": {"x": 1.0, "y": 0.6}, "orientation": {"w": 1.0}}}}
     status, result, fbs = introspection.action_send_goal(ctx, "/navigate_to_pose", NavigateToPose, target, ex,
                                                          feedback=False, quiet=quiet)
     rep.goals.append(((1.0, 0.6), STATUS_NAMES.get(status, str(status)), result.message if result else ""))

@@ -14,6 +14,8 @@ geometry_msgs/PoseStamped target_pose
 ---
 bool success
 string message
+float64 position_error       # m, goal to the pose odometry believes (what success is judged by)
+float64 true_position_error  # m, goal to the true pose from /ground_truth (NaN if none was received)
 ---
 float32 percent_complete
 """)
