@@ -112,3 +112,23 @@ def test_record_and_replay_refuse_bad_arguments(tmp_path):
         record(ctx, 3)
     with pytest.raises(ValueError, match="rate=0 must be a number > 0"):
         replay(tmp_path / "missing.mcap", ctx, rate=0)
+
+
+def test_record_a_topic_that_has_only_subscriptions_then_a_publisher_appears(tmp_path):
+    # the recorder's graph listener runs again inside its own create_subscription; it once
+    # subscribed the same topic recursively until the stack ran out
+    ctx = Context(use_sim_time=True)
+    ctx.log_to_stderr = False
+    n = ctx.create_node("n")
+    n.create_subscription(Twist, "/cmd_vel", lambda m: None, 10)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(n)
+    rec = record(ctx, tmp_path / "late.mcap", ["/cmd_vel"], executor=ex)
+    pub = n.create_publisher(Twist, "/cmd_vel", 10)
+    for k in range(3):
+        t = Twist()
+        t.linear.x = float(k)
+        pub.publish(t)
+    ex.spin_for(0.1)
+    r = rec.read()
+    assert r.topics == ["/cmd_vel"] and list(r.to_numpy("/cmd_vel")["linear.x"]) == [0.0, 1.0, 2.0]

@@ -139,6 +139,9 @@ class Recorder:
             writer.write_message(name, schema, wire_view(msg), log_time=t, publish_time=t, sequence=self._seq)
             self.counts[name] += 1
 
+        # claim the name before subscribing: create_subscription tells the graph listeners (this
+        # _refresh among them), and an unclaimed name would be subscribed again, recursively
+        self._subs[name] = None
         self._subs[name] = self.node.create_subscription(msg_type, name, write, qos)
 
     def close(self) -> str:
