@@ -70,31 +70,31 @@ class Forgetful(BoardSystem):
 
 class Swallows(BoardSystem):
     def read(self, time, period):
-        self.board.read(time, self.pos, self.vel)   # ignores False: stale states, controllers keep running
-        self.state_values[self.pos_slots] = self.pos
-        self.state_values[self.vel_slots] = self.vel
+        self.board.read(time, self.q, self.dq)   # ignores False: stale states, controllers keep running
+        self.state_values[self.p_idx] = self.q
+        self.state_values[self.v_idx] = self.dq
         return return_type.OK
 
 
 class Raises(BoardSystem):
     def read(self, time, period):
-        if not self.board.read(time, self.pos, self.vel):
+        if not self.board.read(time, self.q, self.dq):
             raise OSError("board not answering")
-        self.state_values[self.pos_slots] = self.pos
-        self.state_values[self.vel_slots] = self.vel
+        self.state_values[self.p_idx] = self.q
+        self.state_values[self.v_idx] = self.dq
         return return_type.OK
 
 
 class IgnoresWrite(BoardSystem):
     def write(self, time, period):
-        np.take(self.command_values, self.cmd_slots, out=self.cmd)
-        self.board.write(self.cmd)
+        np.take(self.command_values, self.c_idx, out=self.out)
+        self.board.write(self.out)
         return return_type.OK
 
 
 class Chatty(BoardSystem):
     def write(self, time, period):
-        self.get_logger().info(f"writing {self.cmd}")
+        self.get_logger().info(f"writing {self.out}")
         return super().write(time, period)
 
 
@@ -105,7 +105,7 @@ class Trusting(BoardSystem):
 
 class NoStates(BoardSystem):
     def read(self, time, period):
-        return return_type.OK if self.board.read(time, self.pos, self.vel) else return_type.ERROR
+        return return_type.OK if self.board.read(time, self.q, self.dq) else return_type.ERROR
 
 
 class Delegates(MotorBoardSystem):
@@ -197,10 +197,10 @@ def test_cubic_reference_is_refused():
     (("update_rate: 200", "update_rate: 100"), "update_rate is 100 Hz"),
     (("joint_trajectory_controller/JointTrajectoryController", "joint_trajectory_controller/JTC"),
      "'arm_controller' could not be loaded"),
-    (("    joints: [joint3]\n", "    interface_name: position\n"), "'wrist_controller' was loaded but ended"),
+    (("{joints: [joint3]}", "{interface_name: position}"), "'wrist_controller' was loaded but ended"),
     (("goal_time: 1.0", "goal_time: -1.0"), "must be"),
     (("joint2: {goal: 0.01}", "joint2: {goal: 0.1}"), "constraints.joint2.goal is 0.1"),
-    (("    state_interfaces: [position, velocity]\n", "    state_interfaces: [position]\n"),
+    (("state_interfaces: [position, velocity]", "state_interfaces: [position]"),
      "state_interfaces ['position']"),
 ])
 def test_controllers_yaml_mistakes_are_named(edit, fragment):
