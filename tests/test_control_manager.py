@@ -24,6 +24,7 @@ from robocourse.control import (
     return_type,
 )
 from robocourse.control.log import LogSink
+from robocourse.msgs.builtin_interfaces import Duration
 
 P1, V1, P2, V2 = "joint1/position", "joint1/velocity", "joint2/position", "joint2/velocity"
 
@@ -723,3 +724,83 @@ def test_interface_configuration_that_raises_fails_the_switch_not_the_manager():
     assert cm.switch_controller(["b"], [], STRICT) == return_type.ERROR
     assert "Unable to activate controller 'b': its interface configuration raised KeyError('joints')" in \
         cm.last_switch_message
+
+
+# --- run_realtime hands the bus back (regressions: services unanswered after / during a real-time run) ---------------
+
+
+def _rrbot_cm():
+    from robocourse.control.bringup import bringup
+
+    return bringup("rrbot", spawn=["joint_state_broadcaster"], inactive=["forward_position_controller"],
+                   log=LogSink(log_to_stderr=False))
+
+
+def test_services_answer_after_realtime_runs():
+    """After run_realtime the manager's nodes are back on its executor: list/switch services answer (twice over)."""
+    from robocourse.control import introspection
+    from robocourse.control.msgs import ListControllers, SwitchController
+
+    cm = _rrbot_cm()
+    nodes_before = {n.get_name() for n in cm.executor.get_nodes()}
+    for _ in range(2):
+        cm.run_realtime(0.05)
+        assert {n.get_name() for n in cm.executor.get_nodes()} == nodes_before
+        assert all(n._executor is cm.executor for n in cm.executor.get_nodes())
+        names = [c.name for c in introspection.call(cm, ListControllers, "list_controllers", timeout_sec=2).controller]
+        assert names == ["joint_state_broadcaster", "forward_position_controller"]
+    resp = introspection.call(cm, SwitchController, "switch_controller", timeout_sec=2, request=SwitchController.Request(
+        activate_controllers=["forward_position_controller"], strictness=STRICT))
+    cm.step()
+    assert resp.ok and cm.controllers["forward_position_controller"].state == ACTIVE
+
+
+def test_services_and_new_controllers_work_during_a_realtime_run():
+    """``ros2 control load/configure/switch`` while the loop runs: answered, and the new controller's topic is heard.
+
+    Before: the new controller's node joined the manager's idle executor (its ~/commands went unheard until
+    the run ended) and a caller on a simulated-time context gave up at once (its executor jumped the clock).
+    """
+    from robocourse.control import introspection
+    from robocourse.control.msgs import (
+        ConfigureController,
+        LoadController,
+        SwitchController,
+        UnloadController,
+    )
+    from robocourse.msgs.std_msgs import Float64MultiArray
+
+    cm = _rrbot_cm()
+    cm.unload_controller("forward_position_controller")
+    out = {}
+
+    def operator():
+        time.sleep(0.05)
+        name = "forward_position_controller"
+        out["load"] = introspection.call(cm, LoadController, "load_controller", LoadController.Request(name=name)).ok
+        out["configure"] = introspection.call(cm, ConfigureController, "configure_controller",
+                                              ConfigureController.Request(name=name)).ok
+        out["switch"] = introspection.call(cm, SwitchController, "switch_controller", SwitchController.Request(
+            activate_controllers=[name], strictness=STRICT, timeout=Duration(sec=2))).ok
+        pub = cm.context.create_node("operator").create_publisher(Float64MultiArray, f"/{name}/commands", 10)
+        pub.publish(Float64MultiArray(data=[0.3, -0.2]))
+        deadline = time.monotonic() + 3.0
+        loans = cm.controllers[name].c.command_interfaces
+        while time.monotonic() < deadline and [loan.get_value() for loan in loans] != [0.3, -0.2]:
+            time.sleep(0.01)
+        out["during"] = [loan.get_value() for loan in loans]
+        out["switch_off"] = introspection.call(cm, SwitchController, "switch_controller", SwitchController.Request(
+            deactivate_controllers=[name], strictness=STRICT, timeout=Duration(sec=2))).ok
+        out["unload"] = introspection.call(cm, UnloadController, "unload_controller",
+                                           UnloadController.Request(name=name)).ok
+        out["running_at_end"] = cm.rt_thread_running
+
+    t = threading.Thread(target=operator)
+    t.start()
+    cm.run_realtime(3.0)
+    t.join()
+    assert out["running_at_end"], "the operator's calls must all land while the loop runs (machine too slow?)"
+    assert out["load"] and out["configure"] and out["switch"] and out["switch_off"] and out["unload"], out
+    assert out["during"] == [0.3, -0.2]
+    # the unloaded controller's node was destroyed, not handed back to the manager's executor
+    assert sorted(n.get_name() for n in cm.executor.get_nodes()) == ["controller_manager", "joint_state_broadcaster"]

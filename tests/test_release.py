@@ -36,6 +36,31 @@ SHARED_LINES = {
     "self.integral = 0.0": {"lib/robocourse/pendulum/pid.py"},
     "self.integral = candidate": {"lib/robocourse/pendulum/pid.py"},
     "return min(self.u_max, max(self.u_min, u))": {"lib/robocourse/pendulum/pid.py"},
+    # chapter 4's parameter-file exercise: the YAML layout every ros2_control parameter file shares, and the
+    # wrist line the chapter's failure robot teaches (the JTC section of the answer is the exercise's own)
+    "controller_manager:": {
+        "benchmarks/control_loop.py",
+        "chapters/04_ros2_control.ipynb",
+        "lib/robocourse/bridge/deployment.py",
+        "lib/robocourse/control/checks.py",
+        "lib/robocourse/control/config/rrbot_controllers.yaml",
+        "lib/robocourse/control/config/ur5e_controllers.yaml",
+        "lib/robocourse/control/manager/controller_manager.py",
+        "lib/robocourse/control/manager/services.py",
+        "lib/robocourse/control/parameters.py",
+        "lib/robocourse/drivers/config/arm_controllers.yaml",
+        "tests/test_control_admittance.py",
+        "tests/test_control_controllers.py",
+        "tests/test_control_diff_drive.py",
+        "tests/test_control_gripper.py",
+        "tests/test_control_jtc.py",
+        "tests/test_control_manager.py",
+        "tests/test_control_mujoco_system.py",
+        "tests/test_control_parameters.py",
+        "tests/test_control_pid.py",
+    },
+    "arm_controller:": {"chapters/04_ros2_control.ipynb", "tests/test_control_parameters.py"},
+    "wrist_controller: {ros__parameters: {joints: [joint3]}}": {"chapters/04_ros2_control.ipynb"},
 }
 
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import threading
 
 from robocourse.msgs.builtin_interfaces import Duration
 
@@ -61,14 +62,29 @@ def call(cm, srv_type, name: str, request=None, timeout_sec: float = 5.0):
         client = node.create_client(srv_type, f"/{cm.node.get_name()}/{name}")
         if not client.wait_for_service(timeout_sec=timeout_sec):
             raise RuntimeError(f"Could not contact service /{cm.node.get_name()}/{name}")
-        cm.executor.add_node(node)
-        future = client.call_async(request if request is not None else srv_type.Request())
-        cm.executor.spin_until_future_complete(future, timeout_sec=timeout_sec)
+        running = cm.bus_executor
+        if running is not None:
+            # run_realtime's thread spins the bus on the wall clock: join it and wait in wall time (spinning the
+            # manager's own executor here would let a simulated clock jump to the timeout and give up at once)
+            running.add_node(node)
+            answered = threading.Event()
+            future = client.call_async(request if request is not None else srv_type.Request())
+            def wake(_f):
+                answered.set()
+
+            wake._immediate = True          # run in the thread that completes the future, not on an executor
+            future.add_done_callback(wake)
+            answered.wait(timeout_sec)
+        else:
+            cm.executor.add_node(node)
+            future = client.call_async(request if request is not None else srv_type.Request())
+            cm.executor.spin_until_future_complete(future, timeout_sec=timeout_sec)
         if not future.done():
             raise RuntimeError(f"service /{cm.node.get_name()}/{name} did not answer within {timeout_sec} s")
         return future.result()
     finally:
-        cm.executor.remove_node(node)
+        if node._executor is not None:
+            node._executor.remove_node(node)
         node.destroy_node()
 
 

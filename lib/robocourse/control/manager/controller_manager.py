@@ -160,6 +160,8 @@ class ControllerManager:
         self.cycles = 0
         self._node = None
         self._executor = None
+        #: while run_realtime spins the bus in its own thread: that executor (nodes made meanwhile join it)
+        self.bus_executor = None
         self.timing = None  # set by enable_timing / the real-time loop (see .loop)
         if not self.rm.is_initialized:
             from robocourse.bus import DurabilityPolicy, QoSProfile
@@ -219,7 +221,8 @@ class ControllerManager:
 
     def _make_node(self, name: str):
         node = self.context.create_node(name)
-        self.executor.add_node(node)
+        # during run_realtime the loop's bus thread spins the nodes; the manager's executor gets them back after
+        (self.bus_executor or self.executor).add_node(node)
         return node
 
     # --- controller lifecycle -------------------------------------------------------------------------
@@ -349,7 +352,8 @@ class ControllerManager:
         self.rm.remove_controller_interfaces(name)
         node = spec.c._node
         if node is not None:
-            self.executor.remove_node(node)
+            if node._executor is not None:      # the manager's, or run_realtime's bus executor during a run
+                node._executor.remove_node(node)
             node.destroy_node()
         del self.controllers[name]
         self._reorder()

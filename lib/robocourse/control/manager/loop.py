@@ -151,6 +151,7 @@ def run_realtime(cm, seconds: float, wait: WaitStrategy | None = None, settings:
         executor = SingleThreadedExecutor(context=cm.context)
         for node in cm.executor.get_nodes():
             executor.add_node(node)
+        cm.bus_executor = executor
         thread = threading.Thread(target=executor.spin, name="controller_manager_executor", daemon=True)
         thread.start()
     loop = PeriodicLoop(period_ns, iterations, wait if wait is not None else Hybrid())
@@ -178,6 +179,7 @@ def run_realtime(cm, seconds: float, wait: WaitStrategy | None = None, settings:
         cm.rt_thread_running = False
         cpu_s, wall_s = _time.process_time() - cpu0, _time.perf_counter() - wall0
         if executor is not None:
+            cm.bus_executor = None           # from here on new nodes join the manager's executor
             nodes = executor.get_nodes()     # shutdown() detaches them: hand them back to the manager's executor
             executor.shutdown()
             thread.join(timeout=2.0)
