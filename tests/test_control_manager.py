@@ -804,3 +804,22 @@ def test_services_and_new_controllers_work_during_a_realtime_run():
     assert out["during"] == [0.3, -0.2]
     # the unloaded controller's node was destroyed, not handed back to the manager's executor
     assert sorted(n.get_name() for n in cm.executor.get_nodes()) == ["controller_manager", "joint_state_broadcaster"]
+
+
+def test_realtime_run_on_a_sim_time_context_advances_the_sim_clock_with_the_cycles():
+    """Nodes on the manager's simulated-time context see the cycles' time during run_realtime, as in step()."""
+    cm = _rrbot_cm()
+    assert cm.context.sim is not None
+    node = cm.context.create_node("watcher")
+    ticks = []
+    node.create_timer(0.05, lambda: ticks.append(node.get_clock().now().nanoseconds))
+    cm.executor.add_node(node)
+    cm.step(10)
+    t_before = cm.time
+    cm.run_realtime(0.3)
+    assert cm.context.sim.ns == round(cm.time * 1e9)
+    assert abs(cm.time - t_before - 0.3) < 1e-6
+    assert node.get_clock().now().nanoseconds == round(cm.time * 1e9)
+    # the timer fired during the run on the simulated clock (every 50 ms of cycle time)
+    during = [t for t in ticks if t > round(t_before * 1e9)]
+    assert during and all(t % 50_000_000 == 0 for t in during)

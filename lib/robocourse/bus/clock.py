@@ -147,6 +147,10 @@ class SimTime:
     def __init__(self, start_ns: int = 0):
         self.ns = int(start_ns)
         self._lock = threading.Lock()
+        # who moves the clock: None means the executors spinning on it do (they jump to the next
+        # timer); a loop that owns it (the controller manager's real-time run, like a /clock
+        # publisher) sets itself here and executors then only follow
+        self.driver = None
 
     def advance_to(self, ns: int) -> None:
         with self._lock:

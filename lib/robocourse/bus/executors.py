@@ -277,6 +277,9 @@ class Executor:
                 now = sim.ns
                 if end is not None and now >= end:
                     return None
+                if sim.driver is not None:
+                    self._sleep(0.001)      # another loop drives the sim clock: follow it
+                    continue
                 if sim_next is not None and (end is None or sim_next <= end):
                     sim.advance_to(sim_next)
                     continue

@@ -144,6 +144,15 @@ def run_realtime(cm, seconds: float, wait: WaitStrategy | None = None, settings:
     times = CycleTimes(iterations)
     period = 1.0 / cm.update_rate
     t_start = cm.time
+    # on a simulated-time context the sim clock follows the cycles, as in step(): the controllers'
+    # nodes stamp with the cycle's time and their timers fire (like /clock driven by the loop);
+    # claimed before the bus thread starts, so that executor follows it instead of jumping ahead
+    sim = getattr(cm.context, "sim", None)
+    if sim is not None:
+        if sim.driver is not None:
+            raise RuntimeError(f"the simulated clock is already driven by {sim.driver!r}: one loop at a time "
+                               "may own it (stop the other run first)")
+        sim.driver = cm
     executor = thread = None
     if spin_bus:
         from robocourse.bus import SingleThreadedExecutor
@@ -161,6 +170,8 @@ def run_realtime(cm, seconds: float, wait: WaitStrategy | None = None, settings:
         if not start_holder:
             start_holder.append(tick.deadline_ns - period_ns)
         time = t_start + (tick.deadline_ns - start_holder[0]) * 1e-9
+        if sim is not None:
+            sim.advance_to(int(round(time * 1e9)))
         timed_cycle(cm, times, time, period)
 
     reports: list = []
@@ -177,6 +188,8 @@ def run_realtime(cm, seconds: float, wait: WaitStrategy | None = None, settings:
             result = loop.run(callback)
     finally:
         cm.rt_thread_running = False
+        if sim is not None:
+            sim.driver = None
         cpu_s, wall_s = _time.process_time() - cpu0, _time.perf_counter() - wall0
         if executor is not None:
             cm.bus_executor = None           # from here on new nodes join the manager's executor
