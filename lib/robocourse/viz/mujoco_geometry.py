@@ -40,6 +40,7 @@ class MujocoDrawer:
             elif kind == gt.mjGEOM_ELLIPSOID:
                 scene.sphere(path, 1.0, rgba)
                 scene.set_transform(f"{path}/geometry", np.diag([*size, 1.0]), _static=True)  # a scale, not a pose
+                scene._note_size(path, float(max(size)))
             elif kind == gt.mjGEOM_PLANE:
                 half = [s if s > 0 else plane_size for s in size[:2]]
                 scene.box(path, (2 * half[0], 2 * half[1], 0.002), rgba)
