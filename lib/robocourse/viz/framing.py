@@ -91,7 +91,8 @@ def frame_motion(points, pad: float = 0.0, fov_deg: float = FOV_DEG, aspect: flo
         side = np.array([main[1], -main[0]])            # perpendicular to the motion, horizontal
         if side[1] > 0 or (abs(side[1]) < 1e-9 and side[0] < 0):
             side = -side                                 # look from -y (x runs left to right)
-        flat = span[2] < 0.25 * max(span[0], span[1])
+        bare = np.ptp(pts, axis=0)                       # the motion itself, without the robot's size
+        flat = bare[2] < 0.25 * max(bare[0], bare[1])
         elev = math.radians(55.0 if flat else 15.0)
         direction = np.array([side[0] * math.cos(elev), side[1] * math.cos(elev), math.sin(elev)])
     d = np.asarray(direction, np.float64)

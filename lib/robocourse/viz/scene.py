@@ -120,6 +120,7 @@ class Scene:
         self._extra: dict[str, np.ndarray] = {}  # traces: points that belong to the motion
         self.camera_auto = True                  # frame the motion on show()/html() until set_camera()
         self.view_direction = None               # optional (from target towards camera) for framing
+        self.floor_z = None                      # m: where the grid goes (MujocoDrawer sets it)
         self.camera = None                       # (position, target) last placed, world m
         self.grid_spacing = None                 # m, of the grid drawn by the last framing
         self.scale_length = None                 # m, of the scale bar drawn by the last framing
@@ -359,6 +360,40 @@ class Scene:
             self._draw_grid(pts, pad, pos, target)
         return pos, target
 
+    @staticmethod
+    def _scale_bar_place(pts, pad, pos, target, right, length, width, height, z):
+        """A floor point for the scale bar's left end where bar and label are on screen and as far
+        as possible (on screen) from where the robot went."""
+        fwd = np.array([target[0] - pos[0], target[1] - pos[1], 0.0])
+        fwd /= np.linalg.norm(fwd)
+        rel = pts - target
+        xs = rel @ right
+        ds = rel @ fwd
+        left, rgt = float((xs - pad).min()), float((xs + pad).max())
+        near, far = float((ds - pad).min()), float((ds + pad).max())
+        seen, depth = framing.project(pts, pos, target)
+        reach = pad / (depth * math.tan(math.radians(framing.FOV_DEG) / 2))   # the robot's size on screen
+        best, best_score = None, -1.0
+        for along in (left, rgt - width, (left + rgt - width) / 2):
+            for depth in (near, 0.0, far):
+                start = target + right * along + fwd * depth
+                start[2] = z
+                ends = np.array([start, start + right * width, start + right * width + [0, 0, height * 1.2],
+                                 start + [0, 0, height * 1.2]])
+                try:
+                    ndc, _ = framing.project(ends, pos, target)
+                except ValueError:
+                    continue
+                if np.abs(ndc).max() > 0.95:
+                    continue
+                score = float(np.min(np.linalg.norm(seen[:, None, :] - ndc[None, :, :], axis=2) - reach[:, None]))
+                if score > best_score:
+                    best, best_score = start, score
+        if best is None:  # nothing fits on screen: the left edge at the target's depth
+            best = target + right * left
+            best[2] = z
+        return best
+
     def _draw_grid(self, pts, pad, pos, target):
         g, cmds = self._meshcat.geometry, self._meshcat.commands
         lo, hi = (pts - pad[:, None]).min(0), (pts + pad[:, None]).max(0)
@@ -366,7 +401,10 @@ class Scene:
         s = framing._nice(span / 8)
         x0, x1 = math.floor((lo[0] - s) / s) * s, math.ceil((hi[0] + s) / s) * s
         y0, y1 = math.floor((lo[1] - s) / s) * s, math.ceil((hi[1] + s) / s) * s
-        z = min(0.0, float(lo[2])) + 0.002      # just above a MuJoCo floor (drawn 2 mm thick)
+        # on the floor the drawer reported (just above a MuJoCo plane, drawn 2 mm thick), else at z = 0
+        # or under the lowest point of the motion
+        floor = self.floor_z if self.floor_z is not None else min(0.0, float(pts[:, 2].min()))
+        z = floor + 0.002
         segs = []
         for x in np.arange(x0, x1 + s / 2, s):
             segs += [(x, y0, z), (x, y1, z)]
@@ -377,27 +415,27 @@ class Scene:
         self._send(cmds.Delete(self._path(VIEW_PATH)))
         self._send(cmds.SetObject(lines, path=self._path(f"{VIEW_PATH}/grid")))
         self._send(cmds.SetProperty("visible", False, self._path("/Grid")))   # meshcat's fixed 0.5 m grid
-        # the scale bar: along the camera's horizontal "right", at the front-left of the grid
+        # the scale bar: along the camera's horizontal "right", where it is seen beside the motion
         right, _up, _fwd = framing.camera_axes(pos, target)
         length = framing._nice(span / 3)
         thick = length / 30
-        # from the motion's left edge (as the camera sees it), at the target's depth, on the floor
-        left = float(((pts - target) @ right - pad).min())
-        start = np.array([target[0] + right[0] * left, target[1] + right[1] * left, z + thick / 2])
         yaw = math.atan2(right[1], right[0])
         rot = tf.rot_z(yaw)
+        h = length * 0.3
+        png, aspect = _label_png(f"bar {_length_text(length)}\ngrid {_length_text(s)}")
+        start = self._scale_bar_place(pts, pad, pos, target, right, length, max(length, h * aspect), h, z + thick / 2)
         centre = start + rot @ np.array([length / 2, 0.0, 0.0])
         self._send(cmds.SetObject(g.Box([length, thick * 2, thick]), _rgba_material(g, (0.05, 0.05, 0.05, 1.0)),
                                   self._path(f"{VIEW_PATH}/scale_bar")))
         self._send(cmds.SetTransform(tf.transform(centre, rotation=rot), self._path(f"{VIEW_PATH}/scale_bar")))
-        png, aspect = _label_png(f"bar {_length_text(length)}\ngrid {_length_text(s)}")
-        h = length * 0.3
         label = g.Mesh(g.Box([h * aspect, h, 1e-4]), g.MeshBasicMaterial(
             map=g.ImageTexture(image=g.PngImage(png)), transparent=True))
         self._send(cmds.SetObject(label, path=self._path(f"{VIEW_PATH}/scale_label")))
         lpos = start + rot @ np.array([h * aspect / 2, 0.0, 0.0]) + np.array([0.0, 0.0, thick + h * 0.6])
         self._send(cmds.SetTransform(tf.transform(lpos, rotation=rot @ tf.rot_x(np.pi / 2)),
                                      self._path(f"{VIEW_PATH}/scale_label")))
+        # meshcat's world axes (0.5 m long by default) drawn as long as the scale bar
+        self._send(cmds.SetTransform(np.diag([length / 0.5, length / 0.5, length / 0.5, 1.0]), self._path("/Axes")))
         self.grid_spacing, self.scale_length = s, length
 
     def start_recording(self, fps: int | None = None):
