@@ -27,6 +27,10 @@ from ..notebook import running_as_test
 from . import framing
 from . import transforms as tf
 
+#: the width a notebook output area gives a scene (JupyterLab at common window sizes: 800-1100 px);
+#: the static view frames for this width over its height, the narrow end so nothing is cut off
+CELL_WIDTH_PX = 800
+
 #: scene path of the framing helpers (grid, scale bar): never framed themselves
 VIEW_PATH = "robocourse_view"
 
@@ -116,7 +120,8 @@ class Scene:
         self._last_animation = None
         self._radius: dict[str, float] = {}      # node path -> bounding radius of its geometry (m)
         self._where: dict[str, np.ndarray] = {}  # moving node path -> last position outside recordings
-        self._fixed: set[str] = set()            # world-fixed nodes (floors, rails): not framed
+        self._fixed: set[str] = set()            # world-fixed nodes: framed only if small (a post, not a floor)
+        self._fixed_where: dict[str, np.ndarray] = {}
         self._extra: dict[str, np.ndarray] = {}  # traces: points that belong to the motion
         self.camera_auto = True                  # frame the motion on show()/html() until set_camera()
         self.view_direction = None               # optional (from target towards camera) for framing
@@ -164,7 +169,7 @@ class Scene:
 
     def _forget(self, parts):
         prefix = "/" + "/".join(parts)
-        for book in (self._radius, self._where, self._extra):
+        for book in (self._radius, self._where, self._extra, self._fixed_where):
             for key in [k for k in book if k == prefix or k.startswith(prefix.rstrip("/") + "/")]:
                 del book[key]
         self._fixed = {k for k in self._fixed if not (k == prefix or k.startswith(prefix.rstrip("/") + "/"))}
@@ -249,7 +254,8 @@ class Scene:
         key = "/" + "/".join(_parts(path))
         if _static:
             if key in self._radius:
-                self._fixed.add(key)                 # a world-fixed geom (floor, rail): placed once
+                self._fixed.add(key)                 # a world-fixed geom (floor, rail, post): placed once
+                self._fixed_where[key] = m[:3, 3].copy()
         elif self._anim is None:
             self._where[key] = m[:3, 3].copy()
         else:
@@ -335,33 +341,40 @@ class Scene:
         for w in self._extra.values():
             pts.append(w)
             pad.append(np.zeros(len(w)))
+        if pts:
+            span = float(np.ptp(np.concatenate(pts), axis=0).max() + 2 * max(float(p.max()) for p in pad))
+            for key in self._fixed:
+                if key in self._fixed_where and self._radius.get(key, np.inf) <= 0.5 * span:
+                    pts.append(self._fixed_where[key][None, :])
+                    pad.append(np.array([self._radius[key]]))
         if not pts:
             return np.zeros((0, 3)), np.zeros(0)
         return np.concatenate(pts), np.concatenate(pad)
 
-    def frame(self, direction=None, fill: float = 0.8, grid: bool = True):
+    def frame(self, direction=None, fill: float = 0.8, grid: bool = True, aspect: float = framing.ASPECT):
         """Place the camera so every recorded/current motion fills the view, and lay a grid
         (1-2-5 spacing, about ten squares across the motion) plus a labelled scale bar on the floor.
 
         ``direction`` (world vector from the motion towards the camera) overrides the automatic
         choice (side-on for motion in a vertical plane, 55 deg from above for motion on the
         floor). Returns ``(position, target)``. Called by :meth:`html` and :meth:`show` unless
-        :meth:`set_camera` placed the camera by hand.
+        :meth:`set_camera` placed the camera by hand. ``aspect``: the view's width / height that
+        the framing plans for (the notebook's static view passes its own).
         """
         pts, pad = self.motion_points()
         if len(pts) == 0:
             return None
         if direction is not None:
             self.view_direction = direction
-        pos, target = framing.frame_motion(pts, pad=pad, fill=fill, direction=self.view_direction)
+        pos, target = framing.frame_motion(pts, pad=pad, fill=fill, direction=self.view_direction, aspect=aspect)
         self.set_camera(pos, target, _auto=True)
         self.camera_auto = True
         if grid:
-            self._draw_grid(pts, pad, pos, target)
+            self._draw_grid(pts, pad, pos, target, aspect)
         return pos, target
 
     @staticmethod
-    def _scale_bar_place(pts, pad, pos, target, right, length, width, height, z):
+    def _scale_bar_place(pts, pad, pos, target, right, length, width, height, z, aspect=framing.ASPECT):
         """A floor point for the scale bar's left end where bar and label are on screen and as far
         as possible (on screen) from where the robot went."""
         fwd = np.array([target[0] - pos[0], target[1] - pos[1], 0.0])
@@ -371,7 +384,7 @@ class Scene:
         ds = rel @ fwd
         left, rgt = float((xs - pad).min()), float((xs + pad).max())
         near, far = float((ds - pad).min()), float((ds + pad).max())
-        seen, depth = framing.project(pts, pos, target)
+        seen, depth = framing.project(pts, pos, target, aspect=aspect)
         reach = pad / (depth * math.tan(math.radians(framing.FOV_DEG) / 2))   # the robot's size on screen
         best, best_score = None, -1.0
         for along in (left, rgt - width, (left + rgt - width) / 2):
@@ -381,7 +394,7 @@ class Scene:
                 ends = np.array([start, start + right * width, start + right * width + [0, 0, height * 1.2],
                                  start + [0, 0, height * 1.2]])
                 try:
-                    ndc, _ = framing.project(ends, pos, target)
+                    ndc, _ = framing.project(ends, pos, target, aspect=aspect)
                 except ValueError:
                     continue
                 if np.abs(ndc).max() > 0.95:
@@ -394,7 +407,7 @@ class Scene:
             best[2] = z
         return best
 
-    def _draw_grid(self, pts, pad, pos, target):
+    def _draw_grid(self, pts, pad, pos, target, aspect=framing.ASPECT):
         g, cmds = self._meshcat.geometry, self._meshcat.commands
         lo, hi = (pts - pad[:, None]).min(0), (pts + pad[:, None]).max(0)
         span = float(max(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-3))
@@ -422,8 +435,10 @@ class Scene:
         yaw = math.atan2(right[1], right[0])
         rot = tf.rot_z(yaw)
         h = length * 0.3
+        view_aspect = aspect
         png, aspect = _label_png(f"bar {_length_text(length)}\ngrid {_length_text(s)}")
-        start = self._scale_bar_place(pts, pad, pos, target, right, length, max(length, h * aspect), h, z + thick / 2)
+        start = self._scale_bar_place(pts, pad, pos, target, right, length, max(length, h * aspect), h, z + thick / 2,
+                                      view_aspect)
         centre = start + rot @ np.array([length / 2, 0.0, 0.0])
         self._send(cmds.SetObject(g.Box([length, thick * 2, thick]), _rgba_material(g, (0.05, 0.05, 0.05, 1.0)),
                                   self._path(f"{VIEW_PATH}/scale_bar")))
@@ -476,10 +491,11 @@ class Scene:
         return len(keys)
 
     # -- output -----------------------------------------------------------------------------
-    def html(self) -> str:
-        """The whole scene (animation included) as one self-contained HTML page."""
+    def html(self, aspect: float = framing.ASPECT) -> str:
+        """The whole scene (animation included) as one self-contained HTML page, framed (unless
+        the camera was set by hand) for a view ``aspect`` wide per unit of height."""
         if self.camera_auto:
-            self.frame()
+            self.frame(aspect=aspect)
         js_path = Path(self._meshcat.__file__).parent / "viewer" / "dist" / "main.min.js"
         commands = []
         for node in self._tree.walk():
@@ -522,7 +538,7 @@ class Scene:
         """An IPython display object with the static scene, which a saved notebook keeps."""
         from IPython.display import HTML
 
-        doc = html_lib.escape(self.html(), quote=True)
+        doc = html_lib.escape(self.html(aspect=max(1.0, CELL_WIDTH_PX / int(height))), quote=True)
         return HTML(f'<div style="height:{int(height)}px;width:100%;resize:both;overflow:hidden">'
                     f'<iframe srcdoc="{doc}" style="width:100%;height:100%;border:none"></iframe></div>')
 
@@ -533,7 +549,7 @@ class Scene:
         switches to the live server only if the server answers. A notebook saved with this
         output and reopened after the kernel stopped shows the scene, not a dead link."""
         if self.camera_auto:
-            self.frame()
+            self.frame(aspect=max(1.0, CELL_WIDTH_PX / int(height)))
         if self._vis is not None:
             return _LiveView(self, height)
         return self.static(height)
