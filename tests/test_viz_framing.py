@@ -135,3 +135,19 @@ def test_chromium_shows_the_cartpole_upright_and_large(tmp_path):
     assert bob.sum() > 200 and cart.sum() > 2000, (bob.sum(), cart.sum())
     bob_row, cart_row = np.nonzero(bob)[0].mean(), np.nonzero(cart)[0].mean()
     assert cart_row - bob_row > 0.35 * img.shape[0]     # the balanced pole stands over a third of the view tall
+
+
+def test_live_server_gets_the_framed_camera_for_every_new_browser():
+    """The live server replays its tree to each browser that connects: the orbit target goes with it."""
+    scene = viz.Scene(live=True)
+    try:
+        scene.sphere("ball", 0.1)
+        scene.set_pose("ball", (2.0, 1.0, 0.5))
+        pos, target = scene.frame()
+        cmds = decode_commands(scene._vis.window.get_scene())
+    finally:
+        scene.close()
+    [control] = [c for c in cmds if c.get("type") == "set_control"]
+    tx, ty, tz = (float(v) for v in target)
+    assert f"controls.target.set({tx!r}, {tz!r}, {-ty!r})" in control["callback"]
+    assert any(c.get("type") == "delete_control" for c in cmds)   # no button left in the controls panel
