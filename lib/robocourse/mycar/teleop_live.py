@@ -284,15 +284,17 @@ class LiveTeleop:
             self._drawer = MujocoDrawer(self.scene, sim.car.model, prefix="mycar")
         self._drawer.update(sim.car.data)
         x, y, _ = sim.car.pose()
-        # live: re-frame a 1.2 m square around the car when it nears the edge of the last framing
-        if self._framed_at is None or math.hypot(x - self._framed_at[0], y - self._framed_at[1]) > 0.35:
+        # live: frame a 0.8 m square around the car, seen from behind-above; re-frame when the car
+        # nears its edge (a camera that follows in steps: each re-frame is one command to the viewer)
+        if self._framed_at is None or math.hypot(x - self._framed_at[0], y - self._framed_at[1]) > 0.25:
             self._framed_at = (x, y)
-            self.scene.sphere("robocourse_frame/a", 0.001, rgba=(1, 1, 1, 0.0))
-            self.scene.set_pose("robocourse_frame/a", (x - 0.6, y - 0.6, 0.0))
-            self.scene.sphere("robocourse_frame/b", 0.001, rgba=(1, 1, 1, 0.0))
-            self.scene.set_pose("robocourse_frame/b", (x + 0.6, y + 0.6, 0.1))
+            for name, dx, dy in (("a", -0.4, -0.4), ("b", 0.4, 0.4), ("c", -0.4, 0.4), ("d", 0.4, -0.4)):
+                self.scene.sphere(f"robocourse_frame/{name}", 0.001, rgba=(1, 1, 1, 0.0))
+                self.scene.set_pose(f"robocourse_frame/{name}", (x + dx, y + dy, 0.0))
             if self.scene.camera_auto:
-                self.scene.frame()
+                kept = self.scene.view_direction
+                self.scene.frame(direction=(0.0, -math.cos(math.radians(55)), math.sin(math.radians(55))))
+                self.scene.view_direction = kept
 
     # -- notebook front ends ------------------------------------------------------------------------
     def widget(self, height: int = 380):
