@@ -151,3 +151,36 @@ def test_live_server_gets_the_framed_camera_for_every_new_browser():
     tx, ty, tz = (float(v) for v in target)
     assert f"controls.target.set({tx!r}, {tz!r}, {-ty!r})" in control["callback"]
     assert any(c.get("type") == "delete_control" for c in cmds)   # no button left in the controls panel
+
+
+@pytest.mark.parametrize("session", [None, "student.ipynb"])
+def test_an_executed_notebook_saves_the_scene_and_no_server_link(tmp_path, monkeypatch, session):
+    """``jupyter nbconvert --execute`` (no Jupyter server session) gets the static scene; a person's
+    kernel (JPY_SESSION_NAME set by the server) gets the live view, and neither prints the URL."""
+    nbformat = pytest.importorskip("nbformat")
+    nbclient = pytest.importorskip("nbclient")
+    monkeypatch.setenv("ROBOCOURSE_TEST", "0")            # not shortened: the interactive code path
+    if session:
+        monkeypatch.setenv("JPY_SESSION_NAME", session)
+    else:
+        monkeypatch.delenv("JPY_SESSION_NAME", raising=False)
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_code_cell(
+        "from robocourse.viz import get_scene\n"
+        "scene = get_scene()\n"
+        "scene.box('car', (0.2, 0.1, 0.05))\n"
+        "scene.start_recording(fps=10)\n"
+        "for k in range(10):\n"
+        "    scene.set_time(k / 10)\n"
+        "    scene.set_pose('car', (0.05 * k, 0.0, 0.03))\n"
+        "print('live' if scene.live else 'offline')\n"
+        "scene.publish_recording(height=300)"), nbformat.v4.new_code_cell("scene.show()")]
+    nbclient.NotebookClient(nb, timeout=120, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}).execute()
+    first, second = nb.cells[0].outputs, nb.cells[1].outputs
+    printed = "".join(o.get("text", "") for o in first if o["output_type"] == "stream")
+    assert printed.strip() == ("live" if session else "offline")     # and nothing else: no "open this URL"
+    shown = [o["data"]["text/html"] for o in first + second if "text/html" in o.get("data", {})]
+    assert len(shown) == 2 and all("srcdoc=" in h for h in shown)  # the recording itself, as a page
+    assert "127.0.0.1" not in shown[0]                             # the published recording is static
+    if not session:
+        assert "127.0.0.1" not in shown[1]
