@@ -1,13 +1,20 @@
 """Node loggers: ``node.get_logger().info(...)`` printing ROS-style lines.
 
 rclpy counterpart: ``rclpy.impl.rcutils_logger.RcutilsLogger``. Lines look like
-``[WARN] [1700000000.123456789] [talker]: message`` on stderr; every record is also kept on
-the context (``context.log_records``) so tests and notebooks can read what was reported.
+``[WARN] [1700000000.123456789] [talker]: message``; every record is also kept on the context
+(``context.log_records``) so tests and notebooks can read what was reported.
 ``context.log_to_stderr = False`` silences printing (records are still kept).
+
+Console output follows rcutils: the stream is stderr unless ``RCUTILS_LOGGING_USE_STDOUT=1``,
+colour by severity (DEBUG green, INFO plain, WARN yellow, ERROR and FATAL red) when
+``RCUTILS_COLORIZED_OUTPUT=1`` or, unset, when the stream is a terminal. One difference, for
+notebooks: inside a Jupyter kernel the default stream is stdout and colour is on, because
+Jupyter paints everything on stderr pink, so an INFO line would look like an error there.
 """
 
 from __future__ import annotations
 
+import os
 import sys
 from dataclasses import dataclass
 from enum import IntEnum
@@ -32,6 +39,49 @@ class LogRecord:
     def __str__(self):
         s, ns = divmod(self.stamp_ns, 1_000_000_000)
         return f"[{self.severity.name}] [{s}.{ns:09d}] [{self.name}]: {self.msg}"
+
+
+#: rcutils' console colours (ANSI SGR), by severity
+COLORS = {LoggingSeverity.DEBUG: "\033[32m", LoggingSeverity.INFO: "", LoggingSeverity.WARN: "\033[33m",
+          LoggingSeverity.ERROR: "\033[31m", LoggingSeverity.FATAL: "\033[31m"}
+RESET = "\033[0m"
+
+
+def _in_jupyter_kernel() -> bool:
+    ipython = sys.modules.get("IPython")
+    if ipython is None:
+        return False
+    shell = ipython.get_ipython()
+    return shell is not None and shell.__class__.__name__ == "ZMQInteractiveShell"
+
+
+def _env_flag(name: str):
+    """True / False for an rcutils-style 1/0 variable, None when unset or empty."""
+    value = os.environ.get(name, "").strip()
+    if not value:
+        return None
+    if value not in ("0", "1"):
+        raise ValueError(f"{name}={value!r}: rcutils accepts 1 or 0 (or unset for the default)")
+    return value == "1"
+
+
+def console_stream():
+    """Where log lines go: stdout if RCUTILS_LOGGING_USE_STDOUT=1 (or, unset, in a notebook), else stderr."""
+    use_stdout = _env_flag("RCUTILS_LOGGING_USE_STDOUT")
+    if use_stdout is None:
+        use_stdout = _in_jupyter_kernel()
+    return sys.stdout if use_stdout else sys.stderr
+
+
+def console_line(rec: LogRecord, stream) -> str:
+    """``rec`` as rcutils prints it on ``stream``: coloured if RCUTILS_COLORIZED_OUTPUT=1 or, unset,
+    if the stream is a terminal or a notebook (Jupyter renders ANSI colours)."""
+    colour = _env_flag("RCUTILS_COLORIZED_OUTPUT")
+    if colour is None:
+        isatty = getattr(stream, "isatty", None)
+        colour = _in_jupyter_kernel() or bool(isatty and isatty())
+    code = COLORS.get(rec.severity, "") if colour else ""
+    return f"{code}{rec}{RESET}" if code else str(rec)
 
 
 class RcutilsLogger:
@@ -62,7 +112,8 @@ class RcutilsLogger:
             ctx.log_records.append(rec)
             if not ctx.log_to_stderr:
                 return True
-        print(str(rec), file=sys.stderr)
+        stream = console_stream()
+        print(console_line(rec, stream), file=stream)
         return True
 
     def debug(self, msg, **_):
