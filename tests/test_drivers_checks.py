@@ -118,3 +118,19 @@ def test_a_read_that_crashes_mid_run_fails_cleanly_and_stops_the_box(link_class)
 
     r = run(Crashes)
     assert not r.passed and r.points == 0 and "OSError: cable pulled" in r.message
+
+
+def test_a_box_that_never_moved_is_the_students_fault_not_a_check_error():
+    # every command ahead by one, none ever accepted: the box stays idle, so the deliberate stall
+    # cannot trip a reflex; the judge must say why (not report a broken check)
+    from robocourse.drivers.checks import _inputs, check_franka_link
+    from robocourse.grading import CheckFailed
+
+    inputs = _inputs(np.random.default_rng(0))
+    out = {"error": None, "seqs": list(range(10, 1510)), "read_timeouts": 0, "box_seq_after_pause": [],
+           "q0": [0.0] * 6, "q_final": [0.0] * 6, "errors_after_stall": 0,
+           "stats": {"rx_bad_seq": 1600, "ticks_moving": 0, "commands_ok": 0, "late": 0, "missed": 0},
+           "stats_after_stall": {"reflexes": 0}}
+    with pytest.raises(CheckFailed, match="never accepted a command") as err:
+        check_franka_link(inputs, out)
+    assert "1600 × rx_bad_seq" in str(err.value)

@@ -101,7 +101,12 @@ def _probe(inputs, FrankaLink):  # noqa: N803 (the notebook's class name)
             out["errors_before"] = _attr(link, "errors")
             out["stats"] = _box_stats(port)
             # stall on purpose, past max_missed: the box must brake, and read() must say so
+            # (polled: on a loaded machine the box may skip ticks, so a fixed sleep could fall short)
             time.sleep((inputs["max_missed"] + 20) / 1000)
+            for _ in range(40):
+                if _box_stats(port).get("reflexes") or not out["stats"].get("commands_ok"):
+                    break
+                time.sleep(0.05)
             fresh = link.read(0.5)
             out["read_after_stall"] = bool(fresh)
             out["errors_after_stall"] = _attr(link, "errors")
@@ -195,10 +200,13 @@ def check_franka_link(inputs, out):
     except (TypeError, ValueError):
         f.add(f".q must be the 6 joint positions; got {str(qf)[:80]} (first read {str(q0)[:80]})")
     after = out.get("stats_after_stall") or {}
-    if _count(after, "reflexes") >= 1:
+    if ok == 0:
+        f.add("the box never accepted a command, so the arm never moved: each COMMAND must carry the seq of the "
+              "newest STATE read() kept, with the 16-byte header and command_struct(n)")
+    elif _count(after, "reflexes") >= 1:
         e = out.get("errors_after_stall")
         if not (isinstance(e, int) and not isinstance(e, bool) and e & 1):
-            f.add(f"after a {inputs['max_missed'] + 20} ms stall the box braked (communication_constraints_"
+            f.add(f"after a stall of more than {inputs['max_missed']} ms the box braked (communication_constraints_"
                   f"violation), but .errors after read() is {str(e)[:40]}: decode the state's errors field (bit 0)")
     else:
         raise RuntimeError("check error: the deliberate stall did not trigger the box's reflex")
