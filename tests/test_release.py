@@ -184,7 +184,7 @@ def test_edition_collects_and_runs_its_notebooks(edition):
                              cwd=edition.target, env=env, capture_output=True, text=True, timeout=120)
     assert collect.returncode == 0, collect.stdout[-3000:] + collect.stderr[-3000:]
     collected = [line for line in collect.stdout.splitlines() if "::" in line]
-    notebooks = {line.split("::")[0] for line in collected if ".ipynb" in line}
+    notebooks = {path for path in (line.split("::")[0] for line in collected) if path.endswith(".ipynb")}
     assert notebooks == {f"{d}/{p.name}" for d in ("chapters", "exercises") for p in (ROOT / d).glob("*.ipynb")}
     assert not any("solutions" in line for line in collected)
     run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",

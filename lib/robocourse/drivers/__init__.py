@@ -12,14 +12,12 @@ from __future__ import annotations
 from robocourse.control import pluginlib as _pluginlib
 
 from .arm import ARM_JOINTS
-from .description import CONTROLLERS_YAML, arm_urdf, ethercat_arm_urdf
+from .description import CONTROLLERS_YAML, arm_urdf
 from .process import BoxProcess, BoxStartError
 
 _pluginlib.register("robocourse/FrankaStyleSystem", "robocourse.drivers.systems:FrankaStyleSystem",
                     _pluginlib.HARDWARE_BASE)
 _pluginlib.register("robocourse/URStyleSystem", "robocourse.drivers.systems:URStyleSystem",
-                    _pluginlib.HARDWARE_BASE)
-_pluginlib.register("robocourse/EthercatSystem", "robocourse.drivers.ethercat_system:EthercatSystem",
                     _pluginlib.HARDWARE_BASE)
 
 
@@ -51,5 +49,4 @@ def start_ur_box(rtde_port: int = 0, script_port: int = 0, keepalive: float = 0.
     return BoxProcess("ur", args).start()
 
 
-__all__ = ["ARM_JOINTS", "CONTROLLERS_YAML", "BoxProcess", "BoxStartError", "arm_urdf", "ethercat_arm_urdf", "start_franka_box",
-           "start_ur_box"]
+__all__ = ["ARM_JOINTS", "CONTROLLERS_YAML", "BoxProcess", "BoxStartError", "arm_urdf", "start_franka_box", "start_ur_box"]

@@ -4,7 +4,9 @@ Layers, bottom up: ``frames`` (the wire format), ``pcap`` (Wireshark files), ``s
 images), ``esc`` (a slave controller: registers, FMMUs, SyncManagers, AL state machine),
 ``dc`` (distributed clocks), ``devices`` (coupler, digital IO, CiA 402 drive), ``bus`` (the
 chain with delays and injected faults), ``transport`` (in-process or raw Ethernet),
-``master`` (SOEM's bring-up with pysoem's API).
+``master`` (SOEM's bring-up with pysoem's API), ``ros2_control`` (the
+``robocourse/EthercatSystem`` hardware plugin in ethercat_driver_ros2's shape; importing this
+package declares it with :mod:`robocourse.control.pluginlib`, as a plugin description would).
 
 Two ways a drive tells a master its PDO layout, both mapped by a real SOEM (pysoem) in the
 tests: ``Cia402Drive()`` has no mailbox and lists its PDOs in the SII TxPDO/RxPDO categories
@@ -13,6 +15,8 @@ tests: ``Cia402Drive()`` has no mailbox and lists its PDOs in the SII TxPDO/RxPD
 upload/download, aborts) whose 0x1C12/0x1C13 assignment SOEM reads by SDO
 (``ecx_readPDOmap``), as it does on a real servo drive.
 """
+
+from robocourse.control import pluginlib as _pluginlib
 
 from .bus import Bus
 from .devices import Cia402Drive, Coupler, DigitalInputs, DigitalOutputs
@@ -23,6 +27,9 @@ from .master import Master, MasterError, Slave
 __all__ = ["BOOT", "INIT", "OP", "PREOP", "SAFEOP", "Bus", "Cia402Drive", "Command", "Coupler",
            "Datagram", "DigitalInputs", "DigitalOutputs", "Esc", "Frame", "FrameError", "Master",
            "MasterError", "Slave", "decode_frame", "encode_frame"]
+
+_pluginlib.register("robocourse/EthercatSystem", "robocourse.ethercat.ros2_control:EthercatSystem",
+                    _pluginlib.HARDWARE_BASE)
 
 
 def demo_bus(n_io: int = 1, drives: int = 1, coe: bool = False, **bus_kw) -> Bus:

@@ -1,4 +1,4 @@
-"""robocourse/EthercatSystem: the UR5e arm on simulated CiA 402 drives under the controller manager
+"""robocourse/EthercatSystem (robocourse.ethercat.ros2_control): the UR5e arm on simulated CiA 402 drives under the controller manager
 (ethercat_driver_ros2's URDF layout, automatic transitions, reset_fault, GPIO, slave faults)."""
 
 from __future__ import annotations
@@ -9,19 +9,19 @@ import pytest
 import robocourse.drivers as drivers
 from robocourse.control.bringup import bringup
 from robocourse.control.hardware.types import ACTIVE, INACTIVE
-from robocourse.drivers.ethercat_system import next_controlword
 from robocourse.ethercat.devices import FAULT, OPERATION_ENABLED, cia402_state
+from robocourse.ethercat.ros2_control import ARM_JOINTS, ethercat_arm_urdf, next_controlword
 
 SPAWN = ["joint_state_broadcaster", "forward_position_controller"]
 
 
 def make(**kw):
-    cm = bringup(urdf=drivers.ethercat_arm_urdf(**kw), param_file=drivers.CONTROLLERS_YAML, spawn=SPAWN)
+    cm = bringup(urdf=ethercat_arm_urdf(**kw), param_file=drivers.CONTROLLERS_YAML, spawn=SPAWN)
     return cm, cm.rm.components["UR5e"].impl
 
 
 def q(system):
-    return np.array([system.get_state(f"{j}/position") for j in drivers.ARM_JOINTS])
+    return np.array([system.get_state(f"{j}/position") for j in ARM_JOINTS])
 
 
 @pytest.mark.parametrize("statusword,cw,edge,expected", [
@@ -44,7 +44,7 @@ def test_bring_up_enables_six_drives_and_tracks_position_commands():
         assert [s.name for s in m.slaves] == ["RC1100"] + ["RC-Servo"] * 6 + ["RC1008", "RC2008"]
         cm.step(1)
         assert all(cia402_state(int(system.get_state(f"{j}/statusword"))) == OPERATION_ENABLED
-                   for j in drivers.ARM_JOINTS)
+                   for j in ARM_JOINTS)
         q0 = q(system)
         target = q0 + np.array([0.2, -0.1, 0.1, 0.0, 0.1, -0.1])
         cm.controllers["forward_position_controller"].c.set_command(list(target))
@@ -122,8 +122,27 @@ def test_module_without_bus_position_is_refused():
     from robocourse.control import ControllerManager
     from robocourse.control.log import LogSink
 
-    text = drivers.ethercat_arm_urdf(io=False).replace('<param name="position">3</param>', "", 1)
+    text = ethercat_arm_urdf(io=False).replace('<param name="position">3</param>', "", 1)
     log = LogSink(log_to_stderr=False)
     with pytest.raises(RuntimeError, match="Failed to initialize hardware 'UR5e'"):
         ControllerManager(text, log=log)
     assert any("drive3" in r.msg and "position" in r.msg and "missing" in r.msg for r in log.records)
+
+
+def test_the_plugin_is_declared_by_importing_robocourse_ethercat_alone():
+    # a fresh interpreter: no robocourse.drivers, so the declaration must come from robocourse.ethercat
+    import subprocess
+    import sys
+
+    code = ("import sys, robocourse.ethercat\n"
+            "from robocourse.control import pluginlib\n"
+            "cls = pluginlib.load('robocourse/EthercatSystem', pluginlib.HARDWARE_BASE)\n"
+            "print(cls.__module__, 'robocourse.drivers' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["robocourse.ethercat.ros2_control", "False"]
+
+
+@pytest.mark.parametrize("freq", [0, 2.5, "1000"])
+def test_ethercat_arm_urdf_refuses_a_bad_control_frequency(freq):
+    with pytest.raises(ValueError, match="control_frequency"):
+        ethercat_arm_urdf(control_frequency=freq)

@@ -16,6 +16,9 @@ is theirs: one ``<ec_module name=...>`` inside each ``<joint>`` / ``<gpio>`` wit
       <ec_module name="out"><plugin>ethercat_generic_plugins/GenericEcSlave</plugin>
         <param name="position">3</param><param name="device">RC2008</param></ec_module> ... </gpio>
 
+Importing :mod:`robocourse.ethercat` declares the plugin with :mod:`robocourse.control.pluginlib`;
+:func:`ethercat_arm_urdf` writes the UR5e URDF in this layout.
+
 Where we differ: the bus is robocourse.ethercat's in-process simulation, built from the
 modules (a coupler at position 0 when no module takes it; drives ``Cia402Drive``, IO
 ``DigitalInputs`` (``device`` RC1008) / ``DigitalOutputs`` (RC2008)), brought up by
@@ -45,15 +48,82 @@ error resets faults and runs the enable sequence again.
 from __future__ import annotations
 
 import math
+import re
 import xml.etree.ElementTree as ET
 
 from robocourse.control.hardware.component import SystemInterface
 from robocourse.control.hardware.types import CallbackReturn, return_type
 
+from .bus import Bus
+from .devices import (
+    FAULT,
+    OPERATION_ENABLED,
+    QUICK_STOP_ACTIVE,
+    READY_TO_SWITCH_ON,
+    SWITCH_ON_DISABLED,
+    SWITCHED_ON,
+    Cia402Drive,
+    Coupler,
+    DigitalInputs,
+    DigitalOutputs,
+    cia402_state,
+    drive_inputs,
+    drive_outputs,
+)
+from .master import Master, MasterError
+
 CIA402 = "ethercat_generic_plugins/EcCiA402Drive"
 GENERIC = "ethercat_generic_plugins/GenericEcSlave"
 _MODES = {8: "position", 9: "velocity", 10: "effort"}
 _ENABLE_CYCLES = 200
+
+
+#: The UR5e's arm joints (ur_description's names); the gripper finger and the F/T sensor get no module.
+ARM_JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
+              "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
+_ROS2_CONTROL = re.compile(r"<ros2_control\s[^>]*>.*?</ros2_control>", re.S)
+
+
+def ethercat_arm_urdf(io: bool = True, auto_fault_reset: bool = False, control_frequency: int = 1000) -> str:
+    """The UR5e URDF for ``robocourse/EthercatSystem`` in ethercat_driver_ros2's layout: a coupler
+    at bus position 0, one CiA 402 drive per arm joint (positions 1-6, CSP, ``position`` and
+    ``reset_fault`` commands, a ``statusword`` state) and, with ``io``, an 8-channel input (7) and
+    output (8) terminal as the gpios ``io_in`` / ``io_out`` (``dig_input.1..8`` states,
+    ``dig_output.1..8`` commands)."""
+    from robocourse.sim.robots import urdf_text
+
+    if not isinstance(control_frequency, int) or not 1 <= control_frequency <= 100_000:
+        raise ValueError(f"control_frequency={control_frequency!r} must be an int in 1..100000 Hz, e.g. 1000")
+    text = urdf_text("ur5e", plugin="robocourse/EthercatSystem",
+                     params={"control_frequency": control_frequency})
+    m = _ROS2_CONTROL.search(text)
+    element = ET.fromstring(m.group(0))
+    for child in list(element):
+        if child.tag == "sensor" or (child.tag == "joint" and child.get("name") not in ARM_JOINTS):
+            element.remove(child)
+    for i, joint in enumerate(element.findall("joint")):
+        for itf in joint.findall("command_interface"):
+            if itf.get("name") != "position":
+                joint.remove(itf)
+        ET.SubElement(joint, "command_interface", name="reset_fault")
+        ET.SubElement(joint, "state_interface", name="statusword")
+        mod = ET.SubElement(joint, "ec_module", name=f"drive{i + 1}")
+        ET.SubElement(mod, "plugin").text = CIA402
+        for k, v in (("position", i + 1), ("mode_of_operation", 8),
+                     ("auto_fault_reset", str(bool(auto_fault_reset)).lower())):
+            ET.SubElement(mod, "param", name=k).text = str(v)
+    if io:
+        for name, device, pos, tag, itf in (("io_in", "RC1008", 7, "state_interface", "dig_input"),
+                                            ("io_out", "RC2008", 8, "command_interface", "dig_output")):
+            gpio = ET.SubElement(element, "gpio", name=name)
+            for ch in range(1, 9):
+                ET.SubElement(gpio, tag, name=f"{itf}.{ch}")
+            mod = ET.SubElement(gpio, "ec_module", name=name)
+            ET.SubElement(mod, "plugin").text = GENERIC
+            ET.SubElement(mod, "param", name="position").text = str(pos)
+            ET.SubElement(mod, "param", name="device").text = device
+    ET.indent(element, space="  ", level=1)
+    return text[:m.start()] + ET.tostring(element, encoding="unicode") + text[m.end():]
 
 
 class SimTime:
@@ -105,15 +175,6 @@ def rad_to_counts(q: float) -> int:
 
 def next_controlword(statusword: int, cw: int, reset_edge: bool) -> int:
     """ethercat_driver_ros2's automatic CiA 402 transitions (the reference's table)."""
-    from robocourse.ethercat.devices import (
-        FAULT,
-        QUICK_STOP_ACTIVE,
-        READY_TO_SWITCH_ON,
-        SWITCH_ON_DISABLED,
-        SWITCHED_ON,
-        cia402_state,
-    )
-
     s = cia402_state(statusword)
     if s == SWITCH_ON_DISABLED:
         return (cw & 0x7E) | 0x06
@@ -200,16 +261,6 @@ class EthercatSystem(SystemInterface):
 
     # --- bring-up ---------------------------------------------------------------------------------
     def on_configure(self, previous_state):
-        from robocourse.ethercat import (
-            Bus,
-            Cia402Drive,
-            Coupler,
-            DigitalInputs,
-            DigitalOutputs,
-            Master,
-            MasterError,
-        )
-
         if self.master is None:
             if self.sim is None:
                 from robocourse.sim.robots import RobotSim
@@ -291,8 +342,6 @@ class EthercatSystem(SystemInterface):
 
     def on_activate(self, previous_state):
         """Enable every drive (fault reset edge if needed, then the automatic transitions)."""
-        from robocourse.ethercat.devices import FAULT, OPERATION_ENABLED, cia402_state, drive_inputs
-
         in_op = {id(d["slave"]): 0 for d in self._drive_io}
         for cycle in range(_ENABLE_CYCLES):
             for d in self._drive_io:
@@ -317,13 +366,9 @@ class EthercatSystem(SystemInterface):
         return CallbackReturn.SUCCESS
 
     def _put(self, d, cw: int, target_counts: int, vel: int = 0, torque: int = 0) -> None:
-        from robocourse.ethercat.devices import drive_outputs
-
         d["slave"].output = drive_outputs(cw, target_counts, vel, torque, d["mod"].mode)
 
     def on_deactivate(self, previous_state):
-        from robocourse.ethercat.devices import drive_inputs
-
         for d in self._drive_io:      # disable operation -> switched on (no drive torque; the arm
             d["cw"] = 0x07            # keeps only its gravity feed-forward), as a stopped driver does
             self._put(d, 0x07, drive_inputs(d["slave"].input)[1])
@@ -336,8 +381,6 @@ class EthercatSystem(SystemInterface):
 
     # --- hot path ---------------------------------------------------------------------------------
     def read(self, time, period):
-        from robocourse.ethercat.devices import drive_inputs
-
         m = self.master
         if m is None:
             self.last_error = "the master is not up"
@@ -365,8 +408,6 @@ class EthercatSystem(SystemInterface):
         return return_type.OK
 
     def write(self, time, period):
-        from robocourse.ethercat.devices import drive_inputs
-
         cmd = self.command_values
         for d in self._drive_io:
             sw, pos, *_ = drive_inputs(d["slave"].input)

@@ -1,0 +1,165 @@
+"""Chapter 5's EtherCAT checks: the solution scores full marks, typical mistakes score zero with the reason."""
+
+from pathlib import Path
+
+import nbformat
+import numpy as np
+import pytest
+
+from robocourse.grading import discover, exercises
+from robocourse.grading.checks import get, run_check
+
+ROOT = Path(__file__).resolve().parents[1]
+SOL = ROOT / "solutions/05_hardware_drivers_exercises.ipynb"
+
+
+def solution_namespace() -> dict:
+    """The solution notebook's definitions (its code cells, minus the check/score calls)."""
+    discover()
+    ns: dict = {}
+    for cell in nbformat.read(SOL, as_version=4).cells:
+        if cell.cell_type == "code" and "check(" not in cell.source and "score(" not in cell.source:
+            exec(cell.source, ns)
+    return ns
+
+
+@pytest.fixture(scope="module")
+def solution():
+    return solution_namespace()
+
+
+def run(name, obj, seed=0):
+    return run_check(get(name), obj, rng=np.random.default_rng(seed))
+
+
+def test_every_check_of_ch05_is_called_in_the_exercises():
+    assert exercises.checks_in(nbformat.read(SOL, as_version=4)) == [
+        "ch05.fprd_frame", "ch05.expected_wkc", "ch05.cia402_enable", "ch05.franka_link"]
+
+
+@pytest.mark.parametrize("name,obj", [("ch05.fprd_frame", "fprd_frame"), ("ch05.expected_wkc", "expected_wkc"),
+                                      ("ch05.cia402_enable", "controlword_for")])
+def test_solutions_score_full_marks(solution, name, obj):
+    for seed in range(3):
+        r = run(name, solution[obj], seed)
+        assert r.passed and r.points == r.weight == 2, r.message
+
+
+def test_the_solution_frame_is_the_golden_brd_shape_with_fprd_fields(solution):
+    # hand-derived from the reference's golden BRD pair: same header, cmd 4, ADP 0x1001, ADO 0x0130
+    raw = solution["fprd_frame"](0x1001, 0x0130, 2, 0)
+    assert raw.hex() == ("ffffffffffff" "010101010101" "88a4" "0e10" "04" "00" "0110" "3001" "0200" "0000"
+                         "0000" "0000") + "00" * 30
+    assert len(raw) == 60
+
+
+def test_fprd_with_a_big_endian_address_names_the_field(solution):
+    def big_endian(station, register, length, idx):
+        raw = bytearray(solution["fprd_frame"](station, register, length, idx))
+        raw[18:20] = station.to_bytes(2, "big")
+        return bytes(raw)
+
+    r = run("ch05.fprd_frame", big_endian)
+    assert not r.passed and r.points == 0 and "ecat.adp (station address) at bytes 18..19" in r.message
+
+
+def test_fprd_without_padding_or_with_the_more_bit_scores_zero(solution):
+    def unpadded(station, register, length, idx):
+        return solution["fprd_frame"](station, register, length, idx)[:28 + length]
+
+    def more_bit(station, register, length, idx):
+        raw = bytearray(solution["fprd_frame"](station, register, length, idx))
+        raw[23] |= 0x80
+        return bytes(raw)
+
+    r = run("ch05.fprd_frame", unpadded)
+    assert not r.passed and "padded with zeros to 60" in r.message
+    r = run("ch05.fprd_frame", more_bit)
+    assert not r.passed and "ecat.len (length | flags)" in r.message and "our decoder refuses it" in r.message
+
+
+def test_fprd_through_the_library_encoder_scores_zero():
+    from robocourse.ethercat.frames import Command, datagram, encode_frame
+    from robocourse.ethercat.frames import Frame as EcFrame
+
+    def delegated(station, register, length, idx):
+        return encode_frame(EcFrame([datagram(Command.FPRD, station, register, length, idx)]))
+
+    r = run("ch05.fprd_frame", delegated)
+    assert not r.passed and r.points == 0
+
+
+def test_fprd_returning_a_list_or_raising_is_reported_not_crashed():
+    r = run("ch05.fprd_frame", lambda *a: [1, 2, 3])
+    assert not r.passed and "must return bytes, got list" in r.message
+    r = run("ch05.fprd_frame", lambda *a: 1 / 0)
+    assert not r.passed and "raised ZeroDivisionError" in r.message
+
+
+def test_wkc_counting_an_lwr_write_as_two_scores_zero(solution):
+    def lwr_as_lrw(bus, d):
+        if d["cmd"] == "LWR":
+            return 2 * sum(1 for s in bus["slaves"][:bus["connected"]] if s["outputs"])
+        return solution["expected_wkc"](bus, d)
+
+    r = run("ch05.expected_wkc", lwr_as_lrw)
+    assert not r.passed and r.points == 0 and "LWR of the whole process image" in r.message
+
+
+def test_wkc_ignoring_the_cut_cable_or_the_missing_dc_unit_scores_zero(solution):
+    def no_cut(bus, d):
+        return solution["expected_wkc"]({**bus, "connected": len(bus["slaves"])}, d)
+
+    def all_dc(bus, d):
+        return solution["expected_wkc"]({**bus, "slaves": [{**s, "dc": True} for s in bus["slaves"]]}, d)
+
+    r = run("ch05.expected_wkc", no_cut)
+    assert not r.passed and "cable cut after slave" in r.message
+    r = run("ch05.expected_wkc", all_dc)
+    assert not r.passed and "ado=0x0910" in r.message
+
+
+def test_wkc_layouts_are_fresh_per_seed_and_the_truth_is_the_simulated_bus():
+    from robocourse.ethercat.checks import _wkc_inputs, simulated_wkcs
+
+    a, b = _wkc_inputs(np.random.default_rng(1)), _wkc_inputs(np.random.default_rng(2))
+    assert a != b
+    layout = {"slaves": [{"position": 0, "name": "RC1100", "station": 0x1001, "inputs": 0, "outputs": 0, "dc": True},
+                         {"position": 1, "name": "RC-Servo", "station": 0x1002, "inputs": 13, "outputs": 13, "dc": True},
+                         {"position": 2, "name": "RC1008", "station": 0x1003, "inputs": 1, "outputs": 0, "dc": False}],
+              "connected": 3,
+              "datagrams": [{"cmd": "BRD", "adp": 0, "ado": 0x0000, "length": 2},
+                            {"cmd": "LRW", "logical": 0, "length": 27},
+                            {"cmd": "BRD", "adp": 0, "ado": 0x0910, "length": 4},
+                            {"cmd": "FPRD", "adp": 0x1003, "ado": 0x0910, "length": 4}]}
+    # 3 slaves; LRW = 2 x 1 (outputs) + 2 (inputs); two DC units; the RC1008 has none
+    assert simulated_wkcs(layout) == [3, 4, 2, 0]
+    assert simulated_wkcs({**layout, "connected": 1}) == [1, 0, 1, 0]
+
+
+def test_cia402_without_masks_fails_on_manufacturer_bits(solution):
+    def exact(sw):
+        return {0x0208: 0x80, 0x0240: 0x06, 0x0221: 0x07, 0x0231: 0x07}.get(sw, 0x0F)
+
+    r = run("ch05.cia402_enable", exact)
+    assert not r.passed and r.points == 0 and "manufacturer bits set" in r.message
+
+
+def test_cia402_enable_straight_away_or_holding_the_reset_scores_zero(solution):
+    r = run("ch05.cia402_enable", lambda sw: 0x0F)
+    assert not r.passed and "never reached operation enabled" in r.message
+    # fault reset written as a level: bit 7 set in every controlword never gives a rising edge again
+    r = run("ch05.cia402_enable", lambda sw: solution["controlword_for"](sw) | 0x80)
+    assert not r.passed and r.points == 0
+
+
+def test_cia402_through_the_library_rule_scores_zero():
+    from robocourse.ethercat.ros2_control import next_controlword
+
+    r = run("ch05.cia402_enable", lambda sw: next_controlword(sw, 0, True))
+    assert not r.passed and r.points == 0
+
+
+def test_cia402_returning_garbage_is_reported(solution):
+    r = run("ch05.cia402_enable", lambda sw: "0x0F")
+    assert not r.passed and "a controlword is an int" in r.message
