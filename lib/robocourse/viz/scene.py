@@ -429,7 +429,7 @@ class Scene:
         self._send(cmds.SetObject(lines, path=self._path(f"{VIEW_PATH}/grid")))
         self._send(cmds.SetProperty("visible", False, self._path("/Grid")))   # meshcat's fixed 0.5 m grid
         # the scale bar: along the camera's horizontal "right", where it is seen beside the motion
-        right, _up, _fwd = framing.camera_axes(pos, target)
+        right, up, fwd = framing.camera_axes(pos, target)
         length = framing._nice(span / 3)
         thick = length / 30
         yaw = math.atan2(right[1], right[0])
@@ -446,8 +446,11 @@ class Scene:
         label = g.Mesh(g.Box([h * aspect, h, 1e-4]), g.MeshBasicMaterial(
             map=g.ImageTexture(image=g.PngImage(png)), transparent=True))
         self._send(cmds.SetObject(label, path=self._path(f"{VIEW_PATH}/scale_label")))
-        lpos = start + rot @ np.array([h * aspect / 2, 0.0, 0.0]) + np.array([0.0, 0.0, thick + h * 0.6])
-        self._send(cmds.SetTransform(tf.transform(lpos, rotation=rot @ tf.rot_x(np.pi / 2)),
+        # the label faces the camera (its plane spanned by the view's right and up), so it reads
+        # from a camera high above the floor too, where an upright label is seen edge-on
+        lpos = start + rot @ np.array([h * aspect / 2, 0.0, 0.0]) + np.array([0.0, 0.0, thick]) + up * (h * 0.6)
+        facing = np.column_stack([right, up, -fwd])
+        self._send(cmds.SetTransform(tf.transform(lpos, rotation=facing),
                                      self._path(f"{VIEW_PATH}/scale_label")))
         # meshcat's world axes (0.5 m long by default) drawn as long as the scale bar
         self._send(cmds.SetTransform(np.diag([length / 0.5, length / 0.5, length / 0.5, 1.0]), self._path("/Axes")))
