@@ -139,6 +139,7 @@ class ZenohTransport:
         self.malformed_tokens: list[tuple[str, str]] = []
         self.mismatches: list[str] = []
         self._closed = False
+        self._last_token = time.monotonic()
         self._graph_sub = self.session.liveliness().declare_subscriber(
             f"{wire.ADMIN_SPACE}/{domain_id}/**", self._on_token, history=True)
         # as rmw_zenoh at init: one liveliness query so the graph is complete on return (the
@@ -369,7 +370,20 @@ class ZenohTransport:
                          consolidation=z.ConsolidationMode.NONE, timeout=timeout)
 
     # ------------------------------------------------------------------ remote graph
+    def settle(self, quiet: float = 0.3, timeout: float = 3.0) -> int:
+        """Wait until no liveliness token came or went for ``quiet`` seconds (at most
+        ``timeout``): discovery across processes trickles in after the session opens. The
+        one-shot CLI commands call it before reading the graph (``ros2`` keeps a daemon for
+        the same reason). Returns the number of remote entities known."""
+        end = time.monotonic() + timeout
+        while True:
+            now = time.monotonic()
+            if now - self._last_token >= quiet or now >= end:
+                return len(self.remote)
+            time.sleep(min(0.02, max(end - now, 0.0)))
+
     def _on_token(self, sample):
+        self._last_token = time.monotonic()
         key = str(sample.key_expr)
         put = sample.kind == self._zenoh.SampleKind.PUT
         if not put:
