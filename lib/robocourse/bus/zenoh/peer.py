@@ -31,18 +31,21 @@ def main(argv=None) -> int:
     ap.add_argument("--count", type=int, default=0, help="stop after N messages (0: never)")
     ap.add_argument("--type", default="std_msgs/msg/String")
     ap.add_argument("--best-effort", action="store_true")
+    ap.add_argument("--keep-all", action="store_true",
+                    help="KEEP_ALL history (RELIABLE: the publisher blocks instead of dropping)")
     a = ap.parse_args(argv)
 
     from robocourse.bus.context import Context
     from robocourse.bus.executors import SingleThreadedExecutor
-    from robocourse.bus.qos import QoSProfile, ReliabilityPolicy
+    from robocourse.bus.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
     from robocourse.msgs import REGISTRY
     from robocourse.msgs.example_interfaces import AddTwoInts
     from robocourse.msgs.std_msgs import String
 
     ctx = Context(transport="zenoh", domain_id=a.domain_id, connect=[a.connect])
     ex = SingleThreadedExecutor(context=ctx)
-    qos = QoSProfile(depth=7, reliability=ReliabilityPolicy.BEST_EFFORT if a.best_effort
+    qos = QoSProfile(depth=7, history=HistoryPolicy.KEEP_ALL if a.keep_all else
+                     HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.BEST_EFFORT if a.best_effort
                      else ReliabilityPolicy.RELIABLE)
     if a.role == "talker":
         node = ctx.create_node("talker")
