@@ -20,7 +20,7 @@ multicast scouting off). Rows:
 - pendulum: ``pendulum_motor`` (physics thread, sensor every 970 us) and
   ``pendulum_controller`` (PID, command every 960 us) with the seed's topics and QoS
   (BEST_EFFORT, KEEP_LAST 1), for ``--seconds`` each, in one process and then split across two
-  processes. A message is *late* if its one-way latency (publish -> subscription callback,
+  processes; the setpoint moves (a 0.5 rad, 0.5 Hz sine) so the pendulum keeps moving. A message is *late* if its one-way latency (publish -> subscription callback,
   wall clock, same machine) exceeds the 1 ms control period, or if it never arrives. Messages
   are matched by value (every sensor state and PID command is a distinct float).
 
@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import socket
 import statistics
@@ -215,7 +216,12 @@ def pendulum_role(role, endpoint, seconds, out):
             controller.on_sensor_message(msg)
         cn.create_subscription(JointState, "pendulum_sensor", on_sensor, demo.QOS_REALTIME)
 
+        t_start = time.monotonic()
+
         def controller_publish():
+            # a moving setpoint (0.5 rad sine at 0.5 Hz around the demo's): the pendulum
+            # keeps moving, so every sensor state and command is a distinct value to match
+            controller.pid.command = math.pi / 2 + 0.5 * math.sin(math.pi * (time.monotonic() - t_start))
             if controller.message_ready:
                 log["command_pub"].append((now(), controller.command_message.position))
                 command_pub.publish(controller.command_message)

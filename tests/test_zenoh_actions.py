@@ -138,3 +138,21 @@ def test_server_killed_mid_goal_fails_the_result_request_without_hanging(
     _spin_until(ex, late.done, timeout=0.3)
     assert not late.done()
     assert any("no server exists" in r.msg for r in ctx.log_records)
+
+
+def test_synchronous_send_goal_raises_when_the_server_dies(client_side, endpoint, spawn):  # noqa: F811
+    import threading
+
+    ctx, client, ex = client_side
+    proc = _server(spawn, endpoint, 0.05)
+    assert _spin_until(ex, lambda: client.server_is_ready())
+    spinner = threading.Thread(target=ex.spin, daemon=True)
+    spinner.start()
+    killer = threading.Timer(0.5, proc.kill)
+    killer.start()
+    t0 = time.monotonic()
+    with pytest.raises(ServerGoneError):
+        client.send_goal(Fibonacci.Goal(order=1000))     # blocks until the kill ends it
+    assert time.monotonic() - t0 < 20
+    ex.shutdown()
+    spinner.join(timeout=5)

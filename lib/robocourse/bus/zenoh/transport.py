@@ -24,6 +24,15 @@ Counterparts and differences:
   cache of ``depth`` samples, publisher detection) and advanced subscriber (history for late
   joiners), as rmw_zenoh. QoS compatibility is not negotiated across the wire (zenoh has no
   such check; rmw_zenoh neither).
+- Actions are their three services and two topics (``<action>/_action/send_goal``,
+  ``cancel_goal``, ``get_result``, ``feedback``, ``status``) with the action's own wire types
+  (``<pkg>::action::dds_::<Action>_SendGoal_`` ...), exactly as rmw_zenoh: nothing
+  action-specific on the wire. ``get_result`` queries never time out (rmw_zenoh: UINT64_MAX).
+- A request whose query ends without a reply (the server's process died mid-request, or the
+  600 s ``queries_default_timeout`` passed) fails its future with ``ServerGoneError``; rclpy's
+  future would stay pending forever.
+- Discovery trickles in after the session opens: ``transport.settle()`` waits for it to go
+  quiet (the CLI does; ``ros2`` keeps a daemon for the same reason).
 - Time: across processes the attachment's source timestamp is wall time (ns since 1970),
   whatever the context's clock; simulated time stays in-process.
 - Remote endpoints appear in the introspection calls (``node_list``, ``topic_list``,
