@@ -71,7 +71,13 @@ from robocourse.bus.qos import (
     qos_profile_services_default,
     qos_profile_system_default,
 )
-from robocourse.bus.service import Client, DeadlockError, Service, ServiceCallbackError
+from robocourse.bus.service import (
+    Client,
+    DeadlockError,
+    ServerGoneError,
+    Service,
+    ServiceCallbackError,
+)
 from robocourse.bus.subscription import Subscription
 from robocourse.bus.task import Future, Task
 from robocourse.bus.timer import Rate, Timer
@@ -133,7 +139,7 @@ __all__ = [
     "ParameterDescriptor", "ParameterImmutableException", "ParameterNotDeclaredException",
     "Publisher", "PublisherEventCallbacks", "QoSCompatibility", "QoSPolicyKind",
     "QoSPresetProfiles", "QoSProfile", "ROSClock", "Rate", "ReentrantCallbackGroup",
-    "ReliabilityPolicy", "Service", "ServiceCallbackError", "SetParametersResult", "SimTime",
+    "ReliabilityPolicy", "ServerGoneError", "Service", "ServiceCallbackError", "SetParametersResult", "SimTime",
     "SingleThreadedExecutor", "Subscription", "SubscriptionEventCallbacks", "Task", "Time",
     "Timer", "create_node", "get_default_context", "get_global_executor", "init", "ok",
     "qos_check_compatible", "qos_profile_action_status_default", "qos_profile_sensor_data",

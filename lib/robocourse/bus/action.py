@@ -488,7 +488,9 @@ class ActionClient:
         return outer
 
     def send_goal(self, goal, feedback_callback=None, goal_uuid=None):
-        """Synchronous: send, wait for acceptance and for the result (GetResult response)."""
+        """Synchronous: send, wait for acceptance and for the result (GetResult response).
+        Raises what the goal or result request failed with (e.g. ServerGoneError when the
+        server's process dies mid-goal) instead of blocking forever."""
         self._goal_client._check_deadlock()
         import threading
 
@@ -497,6 +499,10 @@ class ActionClient:
         box = {}
 
         def got_handle(f):
+            if f.exception() is not None:
+                box["e"] = f.exception()
+                ev.set()
+                return
             h = f.result()
             if not h.accepted:
                 box["r"] = None
@@ -505,7 +511,10 @@ class ActionClient:
             r = h.get_result_async()
 
             def got_result(rf):
-                box["r"] = rf.result()
+                if rf.exception() is not None:
+                    box["e"] = rf.exception()
+                else:
+                    box["r"] = rf.result()
                 ev.set()
 
             got_result._immediate = True
@@ -514,6 +523,8 @@ class ActionClient:
         got_handle._immediate = True
         fut.add_done_callback(got_handle)
         ev.wait()
+        if "e" in box:
+            raise box["e"]
         return box["r"]
 
     def _get_result_async(self, handle) -> Future:

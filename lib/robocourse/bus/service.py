@@ -37,6 +37,12 @@ class DeadlockError(RuntimeError):
     """A synchronous call that could never complete."""
 
 
+class ServerGoneError(ConnectionError):
+    """A request sent to a server in another process got no response: the server went away
+    (killed, crashed, shut down) or the query timed out. rclpy's future would stay pending
+    forever; here it fails so nothing hangs."""
+
+
 class _Queued:
     """Work queued for an executor: ``_enqueue`` schedules, the executor ``_take``s (shared by
     Service requests and Client responses)."""

@@ -24,6 +24,15 @@ Counterparts and differences:
   cache of ``depth`` samples, publisher detection) and advanced subscriber (history for late
   joiners), as rmw_zenoh. QoS compatibility is not negotiated across the wire (zenoh has no
   such check; rmw_zenoh neither).
+- Actions are their three services and two topics (``<action>/_action/send_goal``,
+  ``cancel_goal``, ``get_result``, ``feedback``, ``status``) with the action's own wire types
+  (``<pkg>::action::dds_::<Action>_SendGoal_`` ...), exactly as rmw_zenoh: nothing
+  action-specific on the wire. ``get_result`` queries never time out (rmw_zenoh: UINT64_MAX).
+- A request whose query ends without a reply (the server's process died mid-request, or the
+  600 s ``queries_default_timeout`` passed) fails its future with ``ServerGoneError``; rclpy's
+  future would stay pending forever.
+- Discovery trickles in after the session opens: ``transport.settle()`` waits for it to go
+  quiet (the CLI does; ``ros2`` keeps a daemon for the same reason).
 - Time: across processes the attachment's source timestamp is wall time (ns since 1970),
   whatever the context's clock; simulated time stays in-process.
 - Remote endpoints appear in the introspection calls (``node_list``, ``topic_list``,
@@ -39,6 +48,10 @@ import time
 from robocourse.bus.zenoh import wire
 
 DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
+#: rmw_zenoh's ``queries_default_timeout`` (DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5), seconds
+QUERY_TIMEOUT = 600.0
+#: rmw_zenoh waits forever (UINT64_MAX ms) for ``**/_action/get_result/**``; a year will do
+GET_RESULT_TIMEOUT = 365 * 24 * 3600.0
 
 
 def _config(mode, connect, listen, timeout):
@@ -135,8 +148,15 @@ class ZenohTransport:
         self.malformed_tokens: list[tuple[str, str]] = []
         self.mismatches: list[str] = []
         self._closed = False
+        self._last_token = time.monotonic()
         self._graph_sub = self.session.liveliness().declare_subscriber(
             f"{wire.ADMIN_SPACE}/{domain_id}/**", self._on_token, history=True)
+        # as rmw_zenoh at init: one liveliness query so the graph is complete on return (the
+        # subscriber's history arrives asynchronously; `robocourse topic list` cannot wait)
+        for reply in self.session.liveliness().get(f"{wire.ADMIN_SPACE}/{domain_id}/**",
+                                                   timeout=max(connect_timeout, 1.0)):
+            if reply.ok is not None:
+                self._on_token(reply.ok)
         ctx.add_graph_listener(self.sync)
         ctx.on_shutdown(self.close)
         self.sync()
@@ -301,36 +321,78 @@ class ZenohTransport:
 
     def call(self, client, request, future) -> None:
         """Send ``request`` as a zenoh query (ALL_COMPLETE, no consolidation, as rmw_zenoh's
-        client); the first reply carrying our sequence number completes ``future``."""
-        from robocourse.bus.service import ServiceCallbackError
+        client); the first reply carrying our sequence number completes ``future``.
+
+        Timeout as rmw_zenoh: ``queries_default_timeout`` (600 s) for services, none for an
+        action's ``get_result`` (a goal may run for hours). If the query ends with no reply
+        (the server's process died or closed before answering, or the timeout passed), the
+        future gets a :class:`~robocourse.bus.service.ServerGoneError` instead of waiting
+        forever: zenoh finalizes a query whose queryable disappears."""
+        from robocourse.bus.service import ServerGoneError, ServiceCallbackError
 
         z = self._zenoh
         loc = self._local[client]
         seq = next(loc.seq)
         done = []
+        long_running = "/_action/get_result" in client.srv_name
+        timeout = GET_RESULT_TIMEOUT if long_running else QUERY_TIMEOUT
+        started = time.monotonic()
 
         def on_reply(reply):
             if done:
                 return
-            done.append(True)
             if reply.ok is None:
+                done.append(True)
                 client._respond(future, None, ServiceCallbackError(
                     f"service '{client.srv_name}' replied with an error: "
                     f"{reply.err.payload.to_string()}"))
                 return
-            a = wire.decode_attachment(reply.ok.attachment.to_bytes())
+            att = reply.ok.attachment
+            try:
+                a = wire.decode_attachment(att.to_bytes() if att is not None else b"")
+            except ValueError:
+                self.dropped_no_attachment += 1
+                return
             if a.sequence_number != seq:
                 return
+            done.append(True)
             client._respond(future, wire.from_cdr(client.srv_type.Response,
                                                   reply.ok.payload.to_bytes()), None)
 
-        self.session.get(loc.key, on_reply, payload=wire.to_cdr(request),
+        def on_end():
+            if done or self._closed:
+                return
+            done.append(True)
+            waited = time.monotonic() - started
+            why = (f"no reply within the {timeout:.0f} s query timeout" if waited >= timeout
+                   else f"its server went away after {waited:.2f} s without answering (its "
+                        f"process was killed, crashed or shut down)")
+            client._respond(future, None, ServerGoneError(
+                f"request {seq} to service '{client.srv_name}' got no response: {why}. The "
+                f"request is lost; check 'robocourse node list' and call again once "
+                f"wait_for_service() is true"))
+
+        self.session.get(loc.key, z.handlers.Callback(on_reply, on_end),
+                         payload=wire.to_cdr(request),
                          attachment=wire.encode_attachment(seq, loc.gid),
                          target=z.QueryTarget.ALL_COMPLETE,
-                         consolidation=z.ConsolidationMode.NONE, timeout=600.0)
+                         consolidation=z.ConsolidationMode.NONE, timeout=timeout)
 
     # ------------------------------------------------------------------ remote graph
+    def settle(self, quiet: float = 0.3, timeout: float = 3.0) -> int:
+        """Wait until no liveliness token came or went for ``quiet`` seconds (at most
+        ``timeout``): discovery across processes trickles in after the session opens. The
+        one-shot CLI commands call it before reading the graph (``ros2`` keeps a daemon for
+        the same reason). Returns the number of remote entities known."""
+        end = time.monotonic() + timeout
+        while True:
+            now = time.monotonic()
+            if now - self._last_token >= quiet or now >= end:
+                return len(self.remote)
+            time.sleep(min(0.02, max(end - now, 0.0)))
+
     def _on_token(self, sample):
+        self._last_token = time.monotonic()
         key = str(sample.key_expr)
         put = sample.kind == self._zenoh.SampleKind.PUT
         if not put:

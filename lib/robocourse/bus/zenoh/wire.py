@@ -113,15 +113,18 @@ def type_description(t) -> dict:
     """The REP-2011 hashable TypeDescription of a message or service type (no default values,
     referenced types sorted by name), as ``rosidl_generator_type_description`` builds it."""
     refs: dict[str, dict] = {}
+    # an action's inner services (Fibonacci_SendGoal, _GetResult) are not in REGISTRY
+    services = {t._type: t} if isinstance(t, type) and issubclass(t, ServiceType) else {}
 
     def walk(desc):
         for f in desc["fields"]:
             n = f["type"]["nested_type_name"]
             if n and n not in refs:
+                srv = services.get(n[:-6]) or REGISTRY.get(n[:-6])
                 if n == _SERVICE_EVENT_INFO["type_name"]:
                     refs[n] = _SERVICE_EVENT_INFO
-                elif n.endswith("_Event") and n[:-6] in REGISTRY:
-                    refs[n] = _service_event(REGISTRY[n[:-6]])
+                elif n.endswith("_Event") and srv is not None:
+                    refs[n] = _service_event(srv)
                 else:
                     refs[n] = {"type_name": n, "fields": _fields(REGISTRY[n])}
                 walk(refs[n])
