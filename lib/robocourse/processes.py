@@ -90,6 +90,9 @@ class Child:
         line = self._readline(ready_timeout)
         if not line.startswith("READY "):
             self.kill()
+            self.close()
+            if line.startswith("ERROR "):
+                line = json.loads(line[6:])
             raise RuntimeError(f"child {name!r} did not start: {line.strip() or 'no output'}\n"
                                + "".join(self.stderr_lines[-20:]))
         ready = json.loads(line[6:])
