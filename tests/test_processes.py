@@ -88,9 +88,42 @@ def test_import_target_and_a_child_without_context(ep):
     (named_node, {"duration": 0}, ValueError, "duration=0"),
     (named_node, {"args": {"x": object()}}, TypeError, "JSON-able"),
     (named_node, {"connect": "tcp/127.0.0.1:7447"}, ValueError, "list of locators"),
+    (named_node, {"ready_timeout": -1}, ValueError, "ready_timeout=-1"),
 ])
 def test_bad_arguments_are_refused_before_a_process_starts(target, kwargs, exc, match):
     before = len(_CHILDREN)
     with pytest.raises(exc, match=match):
         start_child(target, **{"connect": ["tcp/127.0.0.1:1"], **kwargs})
     assert len(_CHILDREN) == before
+
+
+def test_a_child_whose_parent_is_killed_exits_too(ep, tmp_path):
+    import subprocess
+    import sys
+
+    import psutil
+
+    script = tmp_path / "parent.py"
+    script.write_text(
+        "import sys, time\n"
+        "from robocourse.processes import start_child\n"
+        "def idle(ctx):\n    ctx.create_node('orphan_candidate')\n"
+        f"c = start_child(idle, connect=[{ep!r}], duration=600.0)\n"
+        "print(c.pid, flush=True)\n"
+        "time.sleep(600)\n")
+    parent = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
+    try:
+        child_pid = int(parent.stdout.readline())
+        assert psutil.pid_exists(child_pid)
+        parent.kill()                                  # SIGKILL: no atexit, no cleanup in the parent
+        parent.wait(timeout=10)
+        end = time.monotonic() + 15
+        while time.monotonic() < end and psutil.pid_exists(child_pid) and \
+                psutil.Process(child_pid).status() != psutil.STATUS_ZOMBIE:
+            time.sleep(0.05)
+        gone = not psutil.pid_exists(child_pid) or psutil.Process(child_pid).status() == psutil.STATUS_ZOMBIE
+        assert gone, f"child {child_pid} outlived its killed parent"
+    finally:
+        if parent.poll() is None:
+            parent.kill()
+        parent.stdout.close()

@@ -179,6 +179,9 @@ def start_child(target, *, connect, duration: float = 5.0, args: dict | None = N
     locators); return once its nodes exist (it printed READY). See the module docstring."""
     if isinstance(connect, str):
         raise ValueError(f"connect={connect!r} must be a list of locators, e.g. ['tcp/127.0.0.1:7447']")
+    if isinstance(ready_timeout, bool) or not isinstance(ready_timeout, (int, float)) or not ready_timeout > 0:
+        raise ValueError(f"ready_timeout={ready_timeout!r} must be positive seconds (how long the child may take "
+                         f"to start), e.g. ready_timeout=60")
     spec = _spec(target, args, duration, with_context, domain_id, connect)
     return Child(spec, name or spec.get("name") or spec.get("import"), ready_timeout)
 
