@@ -1,4 +1,4 @@
-"""robocourse.processes: a function runs in a child process by source, on the zenoh graph, stops by
+"""robocourse.bus.zenoh.processes: a function runs in a child process by source, on the zenoh graph, stops by
 itself, reports back, and is never left behind (crash, close, bad input)."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import pytest
 from robocourse.bus import introspection
 from robocourse.bus.context import Context
 from robocourse.bus.zenoh.transport import router
-from robocourse.processes import _CHILDREN, free_endpoint, start_child
+from robocourse.bus.zenoh.processes import _CHILDREN, free_endpoint, start_child
 
 
 @pytest.fixture
@@ -106,7 +106,7 @@ def test_a_child_whose_parent_is_killed_exits_too(ep, tmp_path):
     script = tmp_path / "parent.py"
     script.write_text(
         "import sys, time\n"
-        "from robocourse.processes import start_child\n"
+        "from robocourse.bus.zenoh.processes import start_child\n"
         "def idle(ctx):\n    ctx.create_node('orphan_candidate')\n"
         f"c = start_child(idle, connect=[{ep!r}], duration=600.0)\n"
         "print(c.pid, flush=True)\n"

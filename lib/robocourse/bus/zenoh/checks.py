@@ -7,7 +7,7 @@ teach, as DESIGN.md asks.
 
 The judges compare with :mod:`robocourse.bus.zenoh.wire` (rmw_zenoh's bytes) and
 :func:`robocourse.bus.qos.qos_check_compatible`, computed in the grader. The node exercise is
-graded by running the student's function in a child process (:mod:`robocourse.processes`)
+graded by running the student's function in a child process (:mod:`robocourse.bus.zenoh.processes`)
 against a scripted peer on a private zenoh router, and recording what arrives over the wire.
 Nothing is timed.
 """
@@ -237,7 +237,7 @@ def _node_probe(inputs, accumulator_node):
     from robocourse.bus.qos import QoSProfile
     from robocourse.bus.zenoh.transport import router
     from robocourse.msgs.std_msgs import Int64
-    from robocourse.processes import free_endpoint, start_child
+    from robocourse.bus.zenoh.processes import free_endpoint, start_child
 
     ep = free_endpoint()
     r = router([ep])

@@ -77,7 +77,7 @@ class Child:
 
     def __init__(self, spec: dict, name: str, ready_timeout: float):
         self.name = name
-        self.proc = subprocess.Popen([sys.executable, "-m", "robocourse.processes"], stdin=subprocess.PIPE,
+        self.proc = subprocess.Popen([sys.executable, "-m", "robocourse.bus.zenoh.processes"], stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                      env={**os.environ, "PYTHONUNBUFFERED": "1"})
         _CHILDREN.append(self)
