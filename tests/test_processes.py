@@ -9,8 +9,8 @@ import pytest
 
 from robocourse.bus import introspection
 from robocourse.bus.context import Context
-from robocourse.bus.zenoh.transport import router
 from robocourse.bus.zenoh.processes import _CHILDREN, free_endpoint, start_child
+from robocourse.bus.zenoh.transport import router
 
 
 @pytest.fixture

@@ -235,9 +235,9 @@ def _node_probe(inputs, accumulator_node):
     from robocourse.bus.context import Context
     from robocourse.bus.executors import SingleThreadedExecutor
     from robocourse.bus.qos import QoSProfile
+    from robocourse.bus.zenoh.processes import free_endpoint, start_child
     from robocourse.bus.zenoh.transport import router
     from robocourse.msgs.std_msgs import Int64
-    from robocourse.bus.zenoh.processes import free_endpoint, start_child
 
     ep = free_endpoint()
     r = router([ep])
