@@ -144,3 +144,14 @@ def test_the_option_code_is_object_0x605a_and_bad_values_are_refused():
     assert d.od[(0x605A, 0)].get() == 2
     d.od[(0x605A, 0)].set(6)
     assert d.quick_stop_option_code == 6
+
+
+def test_an_sdo_write_out_of_range_aborts_and_changes_nothing():
+    from robocourse.ethercat.coe import ABORT_VALUE_RANGE, parse_sdo_response, sdo_request
+
+    d = Cia402Drive(mailbox=True)
+    reply = d.coe_reply(sdo_request(0x605A, 0, 1, (9).to_bytes(2, "little")))
+    assert parse_sdo_response(reply, 0x605A, 0) == (None, ABORT_VALUE_RANGE)
+    assert d.quick_stop_option_code == 2
+    reply = d.coe_reply(sdo_request(0x605A, 0, 2, (6).to_bytes(2, "little")))
+    assert parse_sdo_response(reply, 0x605A, 0) == (b"", 0) and d.quick_stop_option_code == 6
