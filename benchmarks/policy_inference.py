@@ -111,8 +111,8 @@ def main(argv=None) -> int:
 
 def deployment_loop(seconds: float, repeats: int) -> None:
     """The 500 Hz control loop's wake-up latency: no policy / policy thread at 50 Hz / inference in the loop."""
-    from robocourse.bridge.deployment import PolicyDeployment
     from robocourse.rl import shipped
+    from robocourse.rl.deployment import PolicyDeployment
 
     policy = shipped.load()
     cfg = shipped.env_config(policy)

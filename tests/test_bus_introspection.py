@@ -100,3 +100,34 @@ def test_doctor_and_graph_picture_mark_incompatible_qos(capsys):
     assert ("/imu", "/ns/listener", "incompatible", "QoS RELIABILITY") in pic.edges
     assert ("/talker", "/cmd_vel", "pub", "") in pic.edges
     assert "QoS RELIABILITY" in svg and "stroke-dasharray" in svg
+
+
+def test_cli_calls_wait_on_an_executor_another_thread_spins():
+    # one thread spins an executor (rclpy): a ros2 CLI call joins it and waits for the answer there
+    import threading
+
+    from robocourse.bus import Future
+
+    ctx = Context()
+    ctx.log_to_stderr = False
+    talker = ctx.create_node("talker")
+    pub = talker.create_publisher(Float64, "/x", 10)
+    talker.create_timer(0.005, lambda: pub.publish(Float64(data=1.5)))
+    talker.create_service(AddTwoInts, "add", lambda q, r: (setattr(r, "sum", q.a + q.b), r)[1])
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(talker)
+    stop = Future()
+    th = threading.Thread(target=ex.spin_until_future_complete, args=(stop,), daemon=True)
+    th.start()
+    try:
+        while not ex.is_spinning_elsewhere():
+            pass
+        resp = ros2.service_call(ctx, "/add", AddTwoInts, {"a": 2, "b": 40}, ex, quiet=True)
+        assert resp is not None and resp.sum == 42
+        msgs = ros2.topic_echo(ctx, "/x", ex, count=3, duration=10.0, quiet=True)
+        assert [m.data for m in msgs] == [1.5, 1.5, 1.5]
+        assert th.is_alive()                       # the spinning thread kept spinning throughout
+    finally:
+        stop.set_result(True)
+        ex._wake()
+        th.join(10)

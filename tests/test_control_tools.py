@@ -129,3 +129,27 @@ def test_picture_shows_components_controllers_claims_and_chains(tmp_path):
 def test_bringup_refuses_plugin_with_own_urdf():
     with pytest.raises(ValueError, match="plugin= applies to a shipped robot"):
         bringup(urdf="<robot/>", plugin="x/y")
+
+
+def test_ros2_control_verbs_wait_on_the_managers_executor_when_a_thread_spins_it():
+    # one thread spins an executor (rclpy): the verb joins that thread's spinning instead of spinning too
+    import threading
+
+    from robocourse.bus import Future
+
+    cm = rrbot(spawn=["joint_state_broadcaster"], inactive=["forward_position_controller"])
+    cm.node  # noqa: B018  (the manager's services exist before the thread spins)
+    stop = Future()
+    th = threading.Thread(target=cm.executor.spin_until_future_complete, args=(stop,), daemon=True)
+    th.start()
+    try:
+        while not cm.executor.is_spinning_elsewhere():
+            pass
+        data = ic.list_controllers(cm, quiet=True)
+        assert [(c.name, c.state) for c in data] == [("joint_state_broadcaster", "active"),
+                                                    ("forward_position_controller", "inactive")]
+        assert th.is_alive()
+    finally:
+        stop.set_result(True)
+        cm.executor._wake()
+        th.join(10)

@@ -2,7 +2,7 @@
 chapter package imports no other chapter package but ``control`` (which imports none).
 
 Foundations: rt, msgs, bus, sim, viz, grading. Chapters: pendulum, mycar, control, ethercat,
-drivers, rl, bridge. Imports are read from the source (absolute, relative, and the
+drivers, rl. Imports are read from the source (absolute, relative, and the
 ``importlib.import_module("robocourse.<pkg>...")`` calls a loader makes), so an import inside a
 function counts too.
 """
@@ -13,7 +13,7 @@ from pathlib import Path
 import robocourse
 
 FOUNDATIONS = ("rt", "msgs", "bus", "sim", "viz", "grading")
-CHAPTERS = ("pendulum", "mycar", "control", "ethercat", "drivers", "rl", "bridge")
+CHAPTERS = ("pendulum", "mycar", "control", "ethercat", "drivers", "rl")
 ROOT = Path(robocourse.__file__).parent
 
 #: (importing package, imported module) edges tolerated for now, each with its issue.
@@ -22,15 +22,10 @@ KNOWN_EXCEPTIONS: set[tuple[str, str]] = set()  # none: grading finds checks via
 #: The one chapter package other chapters may build on (DESIGN.md).
 SHARED_CHAPTER = "control"
 
-#: (importing package, imported module) chapter -> chapter edges tolerated for now, with why.
-#: rl <-> bridge: chapter 6's deployment (bridge.deployment) uses rl's envs and postprocess and
-#: rl.checks judges against bridge.joint_bridge; found when this rule was added (issue 13),
-#: left for chapter 6's owner: the shared code belongs in one of the two.
-KNOWN_CHAPTER_EXCEPTIONS: set[tuple[str, str]] = {
-    ("rl", "bridge.joint_bridge"),
-    ("bridge", "rl.postprocess"),
-    ("bridge", "rl.envs"),
-}
+#: (importing package, imported module) chapter -> chapter edges tolerated for now, with why. None:
+#: chapter 6's deployment lives in rl (rl.deployment), its joint bridge in control (control.joint_bridge,
+#: the shared chapter package) and the real-time thread set-up in rt (rt.realtime_thread).
+KNOWN_CHAPTER_EXCEPTIONS: set[tuple[str, str]] = set()
 
 
 def imported_modules(path: Path) -> set[str]:
@@ -150,3 +145,22 @@ def test_the_scanner_sees_relative_absolute_and_dynamic_imports():
               "    importlib.import_module(f'robocourse.{name}.checks')\n")
     mods = modules_in(source, ["sim"])
     assert {"mycar.kinematics", "pendulum", "control.hardware", "rl", "*.checks"} <= mods
+
+
+#: Packages that are neither: the tools on top (DESIGN.md: notebooks, tests and the CLI may import anything).
+TOOLS = ("cli", "setup_check")
+
+
+def test_every_package_is_classified_so_none_escapes_the_rules():
+    # a package missing from both lists would be scanned by neither rule (chapter 6's bridge package,
+    # which became rl.deployment + control.joint_bridge + rt.realtime_thread, must not come back unlisted)
+    packages = {p.name for p in ROOT.iterdir() if (p / "__init__.py").exists()}
+    assert packages == set(FOUNDATIONS) | set(CHAPTERS) | set(TOOLS)
+
+
+def test_chapter_six_pieces_live_where_rl_may_import_them():
+    # the deployment (rl) uses the joint bridge and the real-time thread set-up: they live in the
+    # shared chapter package and in a foundation, so rl imports neither another chapter nor bridge
+    deployment = imported_modules(ROOT / "rl" / "deployment.py")
+    assert {"control.joint_bridge", "rt.realtime_thread"} <= deployment
+    assert not any(m.split(".")[0] in CHAPTERS and m.split(".")[0] not in ("rl", SHARED_CHAPTER) for m in deployment)

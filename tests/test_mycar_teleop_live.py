@@ -143,3 +143,26 @@ def test_bad_settings_are_refused_before_anything_starts():
         t.press("z")
     with pytest.raises(TypeError, match="launched car"):
         LiveTeleop(car=object())
+
+
+def test_start_refuses_while_another_thread_spins_the_cars_executor(tele):
+    from robocourse.bus import Future
+
+    stop = Future()
+    th = threading.Thread(target=tele.executor.spin_until_future_complete, args=(stop,), daemon=True)
+    th.start()
+    try:
+        assert wait_for(tele.executor.is_spinning_elsewhere)
+        with pytest.raises(RuntimeError, match="already spinning on another thread"):
+            tele.start()
+        assert not tele.running and teleop_threads() == []
+    finally:
+        stop.set_result(True)
+        tele.executor._wake()
+        th.join(10)
+    tele.start()                                     # the other thread is gone: the teleop may spin it now
+    x0 = tele.odometry[0]
+    tele.press("w", hold_s=0.5)
+    assert wait_for(lambda: tele.odometry[0] - x0 > 0.02 or tele.error is not None)
+    tele.stop()
+    assert tele.error is None

@@ -42,7 +42,6 @@ SHARED_LINES = {
     "controller_manager:": {
         "benchmarks/control_loop.py",
         "chapters/04_ros2_control.ipynb",
-        "lib/robocourse/bridge/deployment.py",
         "lib/robocourse/control/checks.py",
         "lib/robocourse/control/config/rrbot_controllers.yaml",
         "lib/robocourse/control/config/ur5e_controllers.yaml",
@@ -50,6 +49,7 @@ SHARED_LINES = {
         "lib/robocourse/control/manager/services.py",
         "lib/robocourse/control/parameters.py",
         "lib/robocourse/drivers/config/arm_controllers.yaml",
+        "lib/robocourse/rl/deployment.py",
         "tests/test_control_admittance.py",
         "tests/test_control_controllers.py",
         "tests/test_control_diff_drive.py",

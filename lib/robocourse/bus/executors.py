@@ -12,6 +12,10 @@ single-threaded case). Each spin iteration runs the earliest due timer, else the
 entity (one message per subscription per turn, round robin). In simulated time, when nothing
 is ready the executor jumps the context's clock to the next timer deadline.
 
+One thread spins an executor at a time (rclpy >= PR #1510, rclcpp's ``spinning`` flag): any
+spin call while another thread is inside one raises ``RuntimeError("Executor is already
+spinning ...")``; the claim is released on every exit, exceptions included.
+
 Differences from rclpy: a callback that raises is logged with its topic and node and recorded
 in ``executor.callback_errors``; the executor keeps spinning (rclpy re-raises out of spin).
 """
@@ -74,7 +78,8 @@ class Executor:
         self._ready = deque()
         self._sleeping = 0
         self._is_shutdown = False
-        self._spin_threads = set()
+        self._spin_lock = threading.Lock()
+        self._spin_owner: tuple[int, str] | None = None   # (thread id, thread name) of the spinning thread
         self.callback_errors: list[CallbackError] = []
         self._running = 0
         self._nodes_lock = threading.Lock()
@@ -343,7 +348,7 @@ class Executor:
     def spin_once(self, timeout_sec: float | None = None) -> None:
         """Run at most one callback, waiting up to ``timeout_sec`` (None: until work)."""
         timeout_sec = _check_timeout(timeout_sec, "spin_once")
-        self._enter()
+        self._enter("spin_once")
         try:
             item = self._wait_for_work(None if timeout_sec is None else int(timeout_sec * 1e9))
             if item is not None:
@@ -362,7 +367,7 @@ class Executor:
         is always due). The real-time executor of chapter 2 calls this once per loop iteration.
         """
         _args.integer(max_callbacks, "spin_some", "max_callbacks", 1)
-        self._enter()
+        self._enter("spin_some")
         try:
             n = 0
             while n < max_callbacks:
@@ -399,7 +404,7 @@ class Executor:
         self._spin_loop(int(t_ns))
 
     def _spin_loop(self, until_ns):
-        self._enter()
+        self._enter("spin" if until_ns is None else "spin_for/spin_until")
         try:
             while True:
                 item = self._wait_for_work(None, until_ns)
@@ -423,11 +428,11 @@ class Executor:
         """Spin until ``future`` is done or ``timeout_sec`` (executor time) passes."""
         _check_future(future)
         timeout_sec = _check_timeout(timeout_sec, "spin_until_future_complete")
-        end = self._arm_future(future, timeout_sec)
-        self._enter()
-        self._future_waiting = True
-        self._done_flag = future.done
+        self._enter("spin_until_future_complete")
         try:
+            end = self._arm_future(future, timeout_sec)
+            self._future_waiting = True
+            self._done_flag = future.done
             while not future.done():
                 item = self._wait_for_work(None, end)
                 if item is None:
@@ -442,19 +447,42 @@ class Executor:
             self._done_flag = None
             self._leave()
 
-    def _enter(self):
-        tid = threading.get_ident()
-        if tid in self._spin_threads:
+    def _enter(self, what: str = "spin"):
+        """Claim the executor for this thread (rclpy's ``_enter_spin``); refuse a second spinner.
+
+        Pair every successful call with :meth:`_leave` in a ``finally``; a refused call claims nothing.
+        """
+        me = threading.current_thread()
+        tid = me.ident
+        with self._spin_lock:
+            owner = self._spin_owner
+            if owner is None:
+                self._spin_owner = (tid, me.name)
+                return
+        cur = current_callback()
+        if owner[0] == tid or (cur is not None and cur[0] is self):
             raise RuntimeError(
-                "this executor is already spinning on this thread: do not call spin*() from "
+                f"{what}(): this executor is already spinning on this thread: do not call spin*() from "
                 "inside a callback; use call_async / futures instead")
-        self._spin_threads.add(tid)
+        raise RuntimeError(
+            f"Executor is already spinning on another thread ('{owner[1]}'): {what}() from thread "
+            f"'{me.name}' refused, as in rclpy. One thread spins an executor; from other threads "
+            "publish, use client.call_async / send_goal_async and wait on the future (or its done "
+            "callback), or give this thread another executor with its own nodes.")
 
     def _leave(self):
-        self._spin_threads.discard(threading.get_ident())
+        with self._spin_lock:
+            if self._spin_owner is not None and self._spin_owner[0] == threading.get_ident():
+                self._spin_owner = None
+
+    def is_spinning(self) -> bool:
+        """rclcpp ``Executor::is_spinning``: True while some thread is inside a spin call."""
+        return self._spin_owner is not None
 
     def is_spinning_elsewhere(self) -> bool:
-        return bool(self._spin_threads - {threading.get_ident()})
+        """True while a thread other than the caller is inside a spin call."""
+        owner = self._spin_owner
+        return owner is not None and owner[0] != threading.get_ident()
 
     def shutdown(self, timeout_sec: float | None = None) -> bool:
         """Stop spinning (after the running callbacks finish) and detach all nodes."""
@@ -612,8 +640,9 @@ class MultiThreadedExecutor(Executor):
                     g.ending_execution(ent)
                 self._cond.notify_all()
 
-    def _spin_loop(self, until_ns, done_flag=lambda: False, return_when_done=False):
-        self._enter()
+    def _spin_loop(self, until_ns, done_flag=lambda: False, return_when_done=False, claimed=False):
+        if not claimed:
+            self._enter("spin" if until_ns is None else "spin_for/spin_until")
         try:
             session = object()
             with self._cond:
@@ -638,11 +667,12 @@ class MultiThreadedExecutor(Executor):
                 t.join()
         finally:
             self._done_flag = None
-            self._leave()
+            if not claimed:
+                self._leave()
 
     def spin_once(self, timeout_sec: float | None = None) -> None:
         timeout_sec = _check_timeout(timeout_sec, "spin_once")
-        self._enter()
+        self._enter("spin_once")
         try:
             with self._cond:
                 item = self._wait_for_work(None if timeout_sec is None else int(timeout_sec * 1e9))
@@ -658,12 +688,14 @@ class MultiThreadedExecutor(Executor):
         already running on other pool threads keep running and finish on their own."""
         _check_future(future)
         timeout_sec = _check_timeout(timeout_sec, "spin_until_future_complete")
-        end = self._arm_future(future, timeout_sec)
-        self._future_waiting = True
+        self._enter("spin_until_future_complete")   # before touching shared state: a refusal changes nothing
         try:
-            self._spin_loop(end, done_flag=future.done, return_when_done=True)
+            end = self._arm_future(future, timeout_sec)
+            self._future_waiting = True
+            self._spin_loop(end, done_flag=future.done, return_when_done=True, claimed=True)
         finally:
             self._future_waiting = False
+            self._leave()
 
     def shutdown(self, timeout_sec: float | None = None) -> bool:
         self._stop = True

@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import itertools
 import math
+import threading
+import time as _time
 
 from robocourse.bus.qos import (
     INFINITE,
@@ -162,6 +164,13 @@ class _Probe:
 
     def spin(self, duration, until=None):
         ex = self.executor
+        if ex.is_spinning_elsewhere():
+            # one thread spins an executor (rclpy): that thread runs our node's callbacks; wait in
+            # wall time (``duration`` seconds) for ``until``
+            end = None if duration is None else _time.monotonic() + duration
+            while (until is None or not until()) and (end is None or _time.monotonic() < end):
+                _time.sleep(0.002)
+            return
         if until is None:
             ex.spin_for(duration)
             return
@@ -174,6 +183,23 @@ class _Probe:
     def close(self):
         self.executor.remove_node(self.node)
         self.node.destroy_node()
+
+
+def wait_for_future(executor, future, timeout_sec):
+    """``executor.spin_until_future_complete(future, timeout_sec)``, or, when another thread already
+    spins ``executor`` (one spinner per executor, as in rclpy), wait for that thread to complete the
+    future (``timeout_sec`` in wall time)."""
+    if not executor.is_spinning_elsewhere():
+        executor.spin_until_future_complete(future, timeout_sec)
+        return
+    done = threading.Event()
+
+    def wake(_f):
+        done.set()
+
+    wake._immediate = True   # run in the thread that completes the future, not on an executor
+    future.add_done_callback(wake)
+    done.wait(timeout_sec)
 
 
 def to_yaml(msg, indent: str = "") -> str:
@@ -399,7 +425,7 @@ def service_call(ctx, service: str, srv_type, values: dict | None, executor, *,
         req = from_dict(srv_type.Request, values or {})
         _out(f"requester: making request: {req!r}\n", quiet)
         fut = cli.call_async(req)
-        executor.spin_until_future_complete(fut, timeout)
+        wait_for_future(executor, fut, timeout)
         if not fut.done():
             _out("timed out waiting for the response", quiet)
             return None
@@ -472,14 +498,14 @@ def action_send_goal(ctx, action: str, action_type, values: dict | None, executo
                 _out(f"Feedback:\n{to_yaml(msg.feedback, '    ')}\n", quiet)
 
         fut = client.send_goal_async(goal, feedback_callback=on_fb)
-        executor.spin_until_future_complete(fut, timeout)
+        wait_for_future(executor, fut, timeout)
         handle = fut.result()
         if handle is None or not handle.accepted:
             _out("Goal was rejected.", quiet)
             return None, None, feedbacks
         _out(f"Goal accepted with ID: {_uuid_key(handle.goal_id).hex()}\n", quiet)
         rf = handle.get_result_async()
-        executor.spin_until_future_complete(rf, timeout)
+        wait_for_future(executor, rf, timeout)
         if not rf.done():
             _out("Timed out waiting for the result", quiet)
             return None, None, feedbacks

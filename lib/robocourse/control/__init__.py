@@ -10,7 +10,9 @@ Mirrors upstream's split:
   :class:`ControllerManager` (switching, chaining, the loop) and its bus services;
 - ``parameters``: generate_parameter_library-style schemas and ROS 2 parameter files;
 - ``controllers``: ros2_controllers, one folder each (forward command, joint state broadcaster);
-- ``pluginlib``: plugins by name; ``introspection``: ``ros2 control`` output and the picture.
+- ``pluginlib``: plugins by name; ``introspection``: ``ros2 control`` output and the picture;
+- ``joint_bridge``: :class:`JointBridge`, the brain/cerebellum bridge (command timeout, safe mode)
+  between a non-real-time command source (chapter 6's policy) and the control loop.
 """
 
 from .hardware.component import (

@@ -24,6 +24,7 @@ import itertools
 import os
 import threading
 
+from robocourse.bus.introspection import wait_for_future
 from robocourse.msgs.builtin_interfaces import Duration
 
 from .hardware.types import as_state
@@ -65,7 +66,8 @@ def call(cm, srv_type, name: str, request=None, timeout_sec: float = 5.0):
         running = cm.bus_executor
         if running is not None:
             # run_realtime's thread spins the bus on the wall clock: join it and wait in wall time (spinning the
-            # manager's own executor here would let a simulated clock jump to the timeout and give up at once)
+            # manager's own executor here would let a simulated clock jump to the timeout and give up at once;
+            # spinning the bus executor would be refused, or refuse the bus thread: one spinner per executor)
             running.add_node(node)
             answered = threading.Event()
             future = client.call_async(request if request is not None else srv_type.Request())
@@ -76,9 +78,10 @@ def call(cm, srv_type, name: str, request=None, timeout_sec: float = 5.0):
             future.add_done_callback(wake)
             answered.wait(timeout_sec)
         else:
+            # the manager's executor: spun here, or (when a notebook's thread already spins it) waited on there
             cm.executor.add_node(node)
             future = client.call_async(request if request is not None else srv_type.Request())
-            cm.executor.spin_until_future_complete(future, timeout_sec=timeout_sec)
+            wait_for_future(cm.executor, future, timeout_sec)
         if not future.done():
             raise RuntimeError(f"service /{cm.node.get_name()}/{name} did not answer within {timeout_sec} s")
         return future.result()

@@ -24,10 +24,12 @@ ABORT_NOT_VALID = 0x05040001
 ABORT_READ_ONLY = 0x06010002
 ABORT_NO_OBJECT = 0x06020000
 ABORT_NO_SUBINDEX = 0x06090011
+ABORT_VALUE_RANGE = 0x06090030
 ABORT_TEXT = {ABORT_NOT_VALID: "Client/server command specifier not valid or unknown",
               ABORT_READ_ONLY: "Attempt to write a read only object",
               ABORT_NO_OBJECT: "The object does not exist in the object directory",
-              ABORT_NO_SUBINDEX: "Subindex does not exist"}
+              ABORT_NO_SUBINDEX: "Subindex does not exist",
+              ABORT_VALUE_RANGE: "Value range of parameter exceeded"}
 _MBX = struct.Struct("<HHBB")
 _SDO = struct.Struct("<HBHB4s")  # CoE header, command, index, subindex, data
 
@@ -101,7 +103,10 @@ class CoeServer:
             if e.set is None:
                 return self._answer(SDO_ABORT, index, sub, ABORT_READ_ONLY.to_bytes(4, "little"))
             n = 4 - ((cmd >> 2) & 3)
-            e.set(int.from_bytes(data[:n], "little", signed=e.signed))
+            try:
+                e.set(int.from_bytes(data[:n], "little", signed=e.signed))
+            except ValueError:  # the object refuses the value (its setter names the range)
+                return self._answer(SDO_ABORT, index, sub, ABORT_VALUE_RANGE.to_bytes(4, "little"))
             return self._answer(SDO_DOWNLOAD_RESP, index, sub, bytes(4))
         return self._answer(SDO_ABORT, index, sub, ABORT_NOT_VALID.to_bytes(4, "little"))
 

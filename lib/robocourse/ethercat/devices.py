@@ -173,12 +173,37 @@ class Cia402Drive(CoeServer, Esc):
     switch on 0x07, enable operation 0x0F, disable voltage, quick stop, fault reset on a rising
     bit 7). Modes 8 CSP (PD position loop), 9 CSV (velocity loop), 10 CST (torque in 0.1 %).
     A following error larger than ``following_error_window`` counts in CSP is a fault (0x8611).
+
+    Quick stop (controlword 0x02 in Operation enabled) enters Quick stop active (sw & 0x6F == 0x07)
+    and brakes as ``quick_stop_option_code`` (object 0x605A, CiA 402's values) says: 0 coast
+    (disable the drive function), 1/5 the slow-down ramp ``profile_deceleration`` (0x6084),
+    2/6 the quick-stop ramp ``quick_stop_deceleration`` (0x6085; rad/s^2 here, counts/s^2 in the
+    objects), 3/7 and 4/8 at ``max_torque`` (the current limit; we have no voltage model, so
+    4/8 brake like 3/7). With 0..4 the drive transits to Switch on disabled once stopped (at
+    the earliest the cycle after it entered, so a master sees the state); with 5..8 it stays
+    in Quick stop active, and enable operation (0x0F) returns to Operation enabled (CiA 402
+    transition 16). Disable voltage leaves Quick stop active at once (transition 12).
     """
 
     def __init__(self, motor: MotorModel | None = None, *, kp: float = 40.0, kd: float = 0.6,
                  kv: float = 0.05, max_torque: float = 2.0,
-                 following_error_window: int = 1 << 17, mailbox: bool = False, **kw) -> None:
+                 following_error_window: int = 1 << 17, mailbox: bool = False,
+                 quick_stop_option_code: int = 2, quick_stop_deceleration: float = 1000.0,
+                 profile_deceleration: float = 200.0, **kw) -> None:
+        for name, value in (("quick_stop_deceleration", quick_stop_deceleration),
+                            ("profile_deceleration", profile_deceleration)):
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
+                    math.isfinite(value) and value > 0):
+                raise ValueError(f"{name}={value!r}: a deceleration must be a finite number of rad/s^2 > 0, "
+                                 f"e.g. {name}=500.0")
         super().__init__(DRIVE_COE if mailbox else DRIVE, ET1100, port_descriptor=0x0F, **kw)
+        self.quick_stop_option_code = 2
+        self._set_quick_stop_option_code(quick_stop_option_code)
+        self.quick_stop_deceleration = float(quick_stop_deceleration)
+        self.profile_deceleration = float(profile_deceleration)
+        self._stop_ref = 0.0          # the braking ramp's velocity reference (rad/s) in Quick stop active
+        self._stop_entered = False    # True in the cycle Quick stop active was entered
+        self._substep_s = 0.0         # the motor model's integration step this cycle (s)
         self.motor = motor or MotorModel()
         self.kp, self.kd, self.kv, self.max_torque = kp, kd, kv, max_torque
         self.following_error_window = following_error_window
@@ -227,8 +252,31 @@ class Cia402Drive(CoeServer, Esc):
             (0x6077, 0): OdEntry(2, lambda: int(round(self.torque / self.motor.rated_torque * 1000)),
                                  None, True),
             (0x607A, 0): OdEntry(4, lambda: self.target_position, None, True),
-            (0x603F, 0): OdEntry(2, lambda: self.error_code)})
+            (0x603F, 0): OdEntry(2, lambda: self.error_code),
+            (0x605A, 0): OdEntry(2, lambda: self.quick_stop_option_code, self._set_quick_stop_option_code, True),
+            (0x6084, 0): OdEntry(4, lambda: self._rad_to_counts(self.profile_deceleration),
+                                 self._set_decel("profile_deceleration")),
+            (0x6085, 0): OdEntry(4, lambda: self._rad_to_counts(self.quick_stop_deceleration),
+                                 self._set_decel("quick_stop_deceleration"))})
         return od
+
+    def _set_quick_stop_option_code(self, code: int) -> None:
+        if isinstance(code, bool) or not isinstance(code, int) or not 0 <= code <= 8:
+            raise ValueError(f"quick_stop_option_code={code!r}: CiA 402 defines 0..8 (0 coast, 1-4 brake then "
+                             "switch on disabled, 5-8 brake and stay in quick stop active); vendor codes < 0 "
+                             "are not modelled; e.g. quick_stop_option_code=2 (the default)")
+        self.quick_stop_option_code = code
+
+    def _rad_to_counts(self, rad: float) -> int:
+        return int(round(rad / (2 * math.pi) * self.motor.counts_per_rev))
+
+    def _set_decel(self, name: str):
+        def setter(counts: int) -> None:
+            if counts <= 0:
+                raise ValueError(f"{name}: {counts} counts/s^2 must be > 0")
+            setattr(self, name, self.motor.to_rad(counts))
+
+        return setter
 
     def _vel_counts(self) -> int:
         return int(round(self.motor.velocity / (2 * math.pi) * self.motor.counts_per_rev))
@@ -268,10 +316,20 @@ class Cia402Drive(CoeServer, Esc):
             return
         if s == FAULT_REACTION_ACTIVE:
             return
-        if cw & 0x82 == 0x00:  # disable voltage
+        if cw & 0x82 == 0x00:  # disable voltage (transition 12 from quick stop active)
             self.cia_state = SWITCH_ON_DISABLED
+        elif s == QUICK_STOP_ACTIVE:
+            # only enable operation leaves it (transition 16), and only where the option code stays (5..8)
+            if cw & 0x8F == 0x0F and self.quick_stop_option_code >= 5:
+                if self.mode_display == MODE_CSP:
+                    self.target_position = self.motor.counts
+                self.cia_state = OPERATION_ENABLED
         elif cw & 0x86 == 0x02:  # quick stop
-            self.cia_state = QUICK_STOP_ACTIVE if s == OPERATION_ENABLED else SWITCH_ON_DISABLED
+            if s == OPERATION_ENABLED:
+                self.cia_state, self._stop_entered = QUICK_STOP_ACTIVE, True
+                self._stop_ref = self.motor.velocity
+            else:
+                self.cia_state = SWITCH_ON_DISABLED
         elif cw & 0x87 == 0x06:  # shutdown
             if s in (SWITCH_ON_DISABLED, SWITCHED_ON, OPERATION_ENABLED, READY_TO_SWITCH_ON):
                 self.cia_state = READY_TO_SWITCH_ON
@@ -287,8 +345,7 @@ class Cia402Drive(CoeServer, Esc):
     def _torque(self) -> float:
         m = self.motor
         if self.cia_state == QUICK_STOP_ACTIVE:
-            t = -self.kv * 20 * m.velocity / (2 * math.pi) * m.counts_per_rev / 1000
-            return max(-self.max_torque, min(self.max_torque, t))
+            return self._quick_stop_torque()
         if self.cia_state != OPERATION_ENABLED:
             return 0.0
         if self.mode_display == MODE_CSP:
@@ -301,6 +358,35 @@ class Cia402Drive(CoeServer, Esc):
         else:
             t = 0.0
         return max(-self.max_torque, min(self.max_torque, t))
+
+    def _quick_stop_torque(self) -> float:
+        """Braking torque in Quick stop active: follow a velocity ramp to 0, or brake at the torque limit."""
+        m, code = self.motor, self.quick_stop_option_code
+        if code == 0:
+            return 0.0
+        ref = 0.0 if code in (3, 4, 7, 8) else self._stop_ref
+        # the torque that puts the velocity on the reference within this sub-step (a stiff velocity
+        # loop), limited to max_torque: the current limit is what codes 3/4/7/8 brake with
+        h = self._substep_s
+        if h <= 0:
+            return 0.0
+        t = m.inertia * (ref - m.velocity) / h + m.damping * m.velocity
+        return max(-self.max_torque, min(self.max_torque, t))
+
+    def _advance_stop_ramp(self, dt: float) -> None:
+        if self.quick_stop_option_code in (1, 5, 2, 6):
+            decel = self.profile_deceleration if self.quick_stop_option_code in (1, 5) else \
+                self.quick_stop_deceleration
+            step = decel * dt
+            r = self._stop_ref
+            self._stop_ref = 0.0 if abs(r) <= step else r - math.copysign(step, r)
+        else:
+            self._stop_ref = 0.0
+
+    def _quick_stop_done(self) -> bool:
+        if self.quick_stop_option_code == 0:
+            return True
+        return self._stop_ref == 0.0 and abs(self.motor.velocity) < 1e-3
 
     def application(self, now_ns: float) -> None:
         if self.state == OP:
@@ -316,14 +402,22 @@ class Cia402Drive(CoeServer, Esc):
         self._last_ns = now_ns
         m = self.motor
         steps = max(1, math.ceil(dt_total / 2.5e-4)) if dt_total > 0 else 0
+        self._substep_s = dt_total / steps if steps else 0.0
         for _ in range(steps):
+            if self.cia_state == QUICK_STOP_ACTIVE:
+                self._advance_stop_ramp(dt_total / steps)
             self.torque = self._torque()
             m.step(self.torque, dt_total / steps)
         if self.cia_state == FAULT_REACTION_ACTIVE:
             self.cia_state = FAULT
             self.torque = 0.0
-        elif self.cia_state == QUICK_STOP_ACTIVE and abs(m.velocity) < 1e-3:
-            self.cia_state = SWITCH_ON_DISABLED
+        elif self.cia_state == QUICK_STOP_ACTIVE:
+            # the cycle it entered reports Quick stop active; after that, a completed stop transits to
+            # Switch on disabled (option codes 0..4) or holds the state (5..8: the drive stays stopped)
+            if not self._stop_entered and self.quick_stop_option_code <= 4 and self._quick_stop_done():
+                self.cia_state = SWITCH_ON_DISABLED
+                self.torque = 0.0
+            self._stop_entered = False
         if (self.cia_state == OPERATION_ENABLED and self.mode_display == MODE_CSP
                 and abs(self.target_position - m.counts) > self.following_error_window):
             self.inject_fault(0x8611)

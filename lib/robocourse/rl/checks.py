@@ -2,7 +2,7 @@
 
 The probes run the student's code on fresh random inputs and return only what it produced; the
 judges compare with the formulas of :mod:`robocourse.rl.export`, :mod:`robocourse.rl.postprocess`
-and :class:`robocourse.bridge.JointBridge`, computed in the grader. Nothing is timed.
+and :class:`robocourse.control.joint_bridge.JointBridge`, computed in the grader. Nothing is timed.
 """
 
 from __future__ import annotations
@@ -170,10 +170,10 @@ def _bridge_probe(inputs, MiniBridge):
 
 
 @register("ch06.bridge_timeout", weight=3, uses=("MiniBridge",), probe=_bridge_probe, inputs=_bridge_inputs,
-          references=("robocourse.bridge.joint_bridge:JointBridge",))
+          references=("robocourse.control.joint_bridge:JointBridge",))
 def check_bridge_timeout(inputs, outputs):
     """MiniBridge(n, timeout): submit() rejects a wrong size; update() holds after the timeout, until a fresh target."""
-    from robocourse.bridge.joint_bridge import JointBridge
+    from robocourse.control.joint_bridge import JointBridge
 
     f = Failures()
     if len(outputs) == 1 and "raised" in outputs[0]:
@@ -232,7 +232,7 @@ def _obs_probe(inputs, reach_observation):
 
 
 @register("ch06.observation", weight=2, uses=("reach_observation",), probe=_obs_probe, inputs=_obs_inputs,
-          references=("robocourse.rl.envs:ArmReachEnv", "robocourse.bridge.deployment:PolicyDeployment"))
+          references=("robocourse.rl.envs:ArmReachEnv", "robocourse.rl.deployment:PolicyDeployment"))
 def check_observation(inputs, outputs):
     """reach_observation(...) -> the 21 numbers in the reach task's order."""
     f = Failures()

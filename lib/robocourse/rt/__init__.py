@@ -11,6 +11,7 @@
 - ``repeat``: interleaved rounds of several settings, medians with their range, worded comparisons.
 - ``inversion``: priority inversion measured (mutex, PI mutex, lock-free hand-off).
 - ``capabilities``: what this machine allows (and how to fix it).
+- ``realtime_thread``: :func:`configure_realtime_thread` (name, policy, mlockall, read back) for one thread.
 """
 
 from . import (
@@ -23,6 +24,7 @@ from . import (
     options,
     permissions,
     plot,
+    realtime_thread,
     repeat,
     results_file,
     settings,
@@ -34,6 +36,11 @@ from .clock import FakeClock, MonotonicClock
 from .cyclictest import CyclictestMissing, run_cyclictest
 from .loop import STOP, LoopResult, PeriodicLoop, Tick, run_loop
 from .options import RttestOptions, RttestUsageError, parse_duration, parse_rttest_args, parse_size
+from .realtime_thread import (
+    RealtimeThreadReport,
+    configure_realtime_thread,
+    release_realtime_thread,
+)
 from .results_file import ResultsData, read_results, write_results
 from .settings import SettingReport, lock_and_prefault, realtime, set_affinity, set_scheduling
 from .stats import RttestStats, compute_stats, format_rttest, histogram
@@ -41,10 +48,12 @@ from .wait import Hybrid, Sleep, Spin, WaitStrategy
 
 __all__ = [
     "capabilities", "clock", "cyclictest", "disturb", "inversion", "loop", "options", "permissions", "plot",
-    "repeat", "results_file", "settings", "stats", "wait",
+    "realtime_thread", "repeat", "results_file", "settings", "stats", "wait",
     "STOP", "CyclictestMissing", "FakeClock", "Finding", "Hybrid", "LoopResult", "MonotonicClock",
-    "PeriodicLoop", "ResultsData", "RttestOptions", "RttestStats", "RttestUsageError", "SettingReport",
+    "PeriodicLoop", "RealtimeThreadReport", "ResultsData", "RttestOptions", "RttestStats", "RttestUsageError",
+    "SettingReport",
     "Sleep", "Spin", "Tick", "WaitStrategy", "compute_stats", "format_rttest", "histogram",
     "lock_and_prefault", "parse_duration", "parse_rttest_args", "parse_size", "probe", "read_results",
-    "realtime", "report", "run_cyclictest", "run_loop", "set_affinity", "set_scheduling", "write_results",
+    "configure_realtime_thread", "realtime", "release_realtime_thread", "report", "run_cyclictest", "run_loop",
+    "set_affinity", "set_scheduling", "write_results",
 ]

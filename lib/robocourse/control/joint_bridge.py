@@ -13,6 +13,8 @@ target received after it entered it. The same checks serve the in-process hand-o
 The cerebellum calls :meth:`update(now, q)` every control tick and applies the returned
 :class:`BridgeCommand`. Times are seconds on the caller's clock (wall or simulated).
 Where we differ: the article's message text is not available to us; ours names both sizes.
+It lives in ``control``, the chapter package others may build on (DESIGN.md), because the
+cerebellum side is the control loop's and any later chapter that feeds it commands may use it.
 """
 
 from __future__ import annotations

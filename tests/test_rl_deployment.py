@@ -4,7 +4,9 @@ exit damping, clipping counted, bad observations and actions survived."""
 import numpy as np
 import pytest
 
-from robocourse.bridge.deployment import (
+from robocourse.control import ACTIVE
+from robocourse.rl import UR5E_DEFAULT_POSE, ArmReachConfig, MLPPolicy, NumpyRuntime
+from robocourse.rl.deployment import (
     EFFORT_CONTROLLER,
     MOVE,
     POSITION_CONTROLLER,
@@ -12,8 +14,6 @@ from robocourse.bridge.deployment import (
     ZERO_TORQUE,
     PolicyDeployment,
 )
-from robocourse.control import ACTIVE
-from robocourse.rl import UR5E_DEFAULT_POSE, ArmReachConfig, MLPPolicy, NumpyRuntime
 from robocourse.sim.robots import Kinematics
 
 CFG = ArmReachConfig()

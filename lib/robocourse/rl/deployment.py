@@ -10,15 +10,19 @@ Pieces: the controller manager runs the UR5e's ``robocourse/MujocoSystem`` with 
 interfaces (``policy_position_controller``) and a ``JointGroupEffortController``
 (``damping_effort_controller``) for zero torque and damping. Each control tick the
 cerebellum (:meth:`PolicyDeployment.control_tick`) publishes the measured state to the brain's
-latest-value buffer, asks the :class:`~robocourse.bridge.JointBridge` for this tick's command
+latest-value buffer, asks the :class:`~robocourse.control.joint_bridge.JointBridge` for this tick's command
 (the newest target, or the safe mode after a timeout), writes it to the controller and runs one
 read -> update -> write cycle. The brain (:meth:`policy_tick`) builds the observation exactly as
 :class:`~robocourse.rl.ArmReachEnv` does, runs the policy runtime, post-processes the action
 (scale, EMA, clipping) and submits the target with the observation's time.
 
+Where the pieces live (DESIGN.md's layering): the deployment is chapter 6's, here in ``rl``; the
+joint bridge is the shared chapter package's (:mod:`robocourse.control.joint_bridge`) and the
+thread set-up a foundation's (:mod:`robocourse.rt.realtime_thread`), so rl imports no other chapter.
+
 ``run_simulated`` steps both on simulated time in one thread (deterministic: the policy every
 ``decimation`` ticks, as in training); ``run_realtime`` runs them on the wall clock in two
-threads (the cerebellum configured by :func:`configure_realtime_thread`) and measures per-thread
+threads (the cerebellum configured by :func:`~robocourse.rt.realtime_thread.configure_realtime_thread`) and measures per-thread
 loop latency, inference time and the observation -> command age.
 """
 
@@ -31,11 +35,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robocourse.rl.envs import ARM_JOINTS, ArmReachConfig
-from robocourse.rl.postprocess import ActionProcessor
+from robocourse.control.joint_bridge import DAMPING, HOLD, RUN, JointBridge
+from robocourse.rt.realtime_thread import configure_realtime_thread, release_realtime_thread
 
-from .joint_bridge import DAMPING, HOLD, RUN, JointBridge
-from .realtime_thread import configure_realtime_thread, release_realtime_thread
+from .envs import ARM_JOINTS, ArmReachConfig
+from .postprocess import ActionProcessor
 
 POSITION_CONTROLLER = "policy_position_controller"
 EFFORT_CONTROLLER = "damping_effort_controller"

@@ -4,10 +4,11 @@ leaving only on fresh targets; configure_realtime_thread verified, privileged an
 import numpy as np
 import pytest
 
-from robocourse.bridge import DAMPING, HOLD, RUN, JointBridge, configure_realtime_thread
 from robocourse.bus import Context, HistoryPolicy, SingleThreadedExecutor
+from robocourse.control.joint_bridge import DAMPING, HOLD, RUN, JointBridge
 from robocourse.msgs.sensor_msgs import JointState
 from robocourse.msgs.std_msgs import Float64MultiArray
+from robocourse.rt.realtime_thread import configure_realtime_thread
 
 J = ["a", "b", "c"]
 
@@ -124,7 +125,7 @@ def test_configure_realtime_thread_names_the_thread_and_reads_back_what_took_eff
 def test_configure_realtime_thread_unprivileged_reports_the_refusal_and_carries_on():
     from pathlib import Path
 
-    import robocourse.bridge.realtime_thread as module
+    import robocourse.rt.realtime_thread as module
     from robocourse.rt.permissions import run_unprivileged
 
     # as 'nobody' the interpreter's files may be unreadable: the module's source travels in the code
