@@ -30,7 +30,14 @@ from robocourse.bus.qos import (
     ReliabilityPolicy,
 )
 from robocourse.msgs import definition_name, from_dict, full_definition
-from robocourse.msgs._core import REGISTRY, ServiceType, wire_view
+from robocourse.msgs._core import (
+    REGISTRY,
+    ServiceType,
+    _from_dict,
+    _has_ndarray,
+    _to_dict,
+    wire_view,
+)
 
 ADMIN_SPACE = "@ros2_lv"
 RIHS01_PREFIX = "RIHS01_"
@@ -352,6 +359,21 @@ class Attachment:
     gid: bytes
 
 
+def attachment_ok(data: bytes) -> bool:
+    """True when ``data`` has the 33-byte form :func:`decode_attachment` accepts (the hot
+    receive path only validates; it never needs the fields)."""
+    return len(data) == ATTACHMENT_SIZE and data[16] == GID_SIZE
+
+
+def attachment_packer(gid: bytes):
+    """``pack(sequence_number, source_timestamp_ns) -> bytes``: :func:`encode_attachment`
+    with the GID checked and bound once (a publisher's GID never changes)."""
+    if len(gid) != GID_SIZE:
+        raise ValueError(f"gid has {len(gid)} bytes; a GID has {GID_SIZE}")
+    pack, gid = _ATT.pack, bytes(gid)
+    return lambda seq, ts: pack(seq, ts, GID_SIZE, gid)
+
+
 def decode_attachment(data: bytes) -> Attachment:
     """Inverse of :func:`encode_attachment`; ValueError for anything but the 33-byte form
     (e.g. the 77-byte named-field form of rmw_zenoh before mid-2025)."""
@@ -371,6 +393,24 @@ def _codec(t):
     schema = definition_name(t._type)
     text = full_definition(t)
     return serialize_dynamic(schema, text)[schema], generate_dynamic(schema, text)[schema]
+
+
+@functools.cache
+def encoder(t):
+    """``encode(msg) -> bytes`` for messages of type ``t``: :func:`to_cdr` with the codec
+    and the wire-view decision looked up once (a publisher's hot path)."""
+    enc = _codec(t)[0]
+    if _has_ndarray(t):
+        return lambda msg: bytes(enc(_to_dict(msg)))
+    return lambda msg: bytes(enc(msg))
+
+
+@functools.cache
+def decoder(t):
+    """``decode(data) -> message of type t``: :func:`from_cdr` with the codec looked up once
+    (a subscription's hot path); the values are checked like a constructor call."""
+    dec = _codec(t)[1]
+    return lambda data: _from_dict(t, dec(data))
 
 
 def to_cdr(msg) -> bytes:
