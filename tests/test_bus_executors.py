@@ -355,3 +355,26 @@ def test_negative_timeout_blocks_like_none_as_in_rclpy():
     ex.add_node(node)
     ex.spin_once(timeout_sec=-1)          # rclpy: negative = wait until work
     assert got == [1]
+
+
+def test_single_threaded_wake_signal_keeps_event_semantics():
+    """The lock-based wake-up of SingleThreadedExecutor behaves like Event set/wait/clear:
+    a wake before the sleep is consumed by it (no lost wake-up), repeated wakes collapse into
+    one, and a wake from another thread ends an untimed sleep."""
+    from robocourse.bus import SingleThreadedExecutor
+
+    ex = SingleThreadedExecutor()
+    assert ex._signal.locked()                  # unsignalled
+    ex._wake()
+    ex._wake()                                  # already signalled: no error, still one
+    assert not ex._signal.locked()
+    ex._sleep(60.0)                             # returns on the pending wake...
+    assert ex._signal.locked()                  # ...and consumed it (wait + clear)
+    sleeper = threading.Thread(target=ex._sleep, args=(None,), daemon=True)
+    sleeper.start()
+    while not ex._sleeping and sleeper.is_alive():
+        time.sleep(0.001)
+    ex._wake()                                  # another thread's wake ends an untimed sleep
+    sleeper.join(30)
+    assert not sleeper.is_alive()
+    assert ex._sleeping == 0

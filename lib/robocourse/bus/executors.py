@@ -509,20 +509,30 @@ class SingleThreadedExecutor(Executor):
 
     def __init__(self, *, context=None):
         super().__init__(context=context)
-        self._event = threading.Event()
+        # the wake-up signal: a plain lock held while unsignalled (release = set, a
+        # successful acquire = wait + clear). Same semantics as threading.Event's
+        # set/wait/clear, but one C call on each side instead of a Condition's Python code:
+        # samples from the zenoh transport's threads reach the spinning thread sooner.
+        self._signal = threading.Lock()
+        self._signal.acquire()
 
     def _sleep(self, seconds):
         self._sleeping += 1
         try:
             if self._ready or self._is_shutdown:
                 return
-            self._event.wait(seconds)
-            self._event.clear()
+            if seconds is None:
+                self._signal.acquire()
+            else:
+                self._signal.acquire(True, min(max(seconds, 0.0), threading.TIMEOUT_MAX))
         finally:
             self._sleeping -= 1
 
     def _wake(self):
-        self._event.set()
+        try:
+            self._signal.release()
+        except RuntimeError:        # already signalled (not yet consumed): nothing to add
+            pass
 
 
 class MultiThreadedExecutor(Executor):

@@ -584,9 +584,14 @@ def from_dict(msg_type: type, data) -> Any:
     return _from_dict(msg_type, data)
 
 
+@functools.cache
+def _field_map(msg_type: type) -> dict:
+    return {s.name: s for s in msg_type._fields}
+
+
 def _from_dict(msg_type: type, data) -> Any:
     msg = msg_type()
-    names = {s.name: s for s in msg_type._fields}
+    names = _field_map(msg_type)
     if isinstance(data, dict):
         items = data.items()
         unknown = [k for k in data if k not in names]
