@@ -170,9 +170,10 @@ def test_plain_zenoh_client_gets_its_sequence_number_and_gid_back(ctx, endpoint,
     ex.add_node(node)
     raw = spawn(str(RAW), "call", endpoint)
     replies = []
-    _spin_until(ex, lambda: _poll_line(raw, replies) and len(replies) == 2)
+    done = _spin_until(ex, lambda: _poll_line(raw, replies) and len(replies) == 2)
+    assert done, f"the raw client reported only {replies} within 20 s"
     assert [(r["sum"], r["seq"], r["gid_echoed"]) for r in replies] == \
-        [(42, 41, True), (43, 42, True)]
+        [(42, 41, True), (43, 42, True)], replies
     assert replies[0]["key"].startswith("0/add_two_ints/example_interfaces::srv::dds_::")
 
 

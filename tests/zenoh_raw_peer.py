@@ -77,6 +77,9 @@ def main(role, endpoint):
             for r in s.get(skey, payload=req({"a": seq, "b": 1}), attachment=att(seq),
                            target=zenoh.QueryTarget.ALL_COMPLETE,
                            consolidation=zenoh.ConsolidationMode.NONE, timeout=10.0):
+                if r.ok is None:        # an error reply: say so, the test shows it
+                    out(error=str(r.err.payload.to_string()), seq=seq)
+                    continue
                 a = r.ok.attachment.to_bytes()
                 rseq, _ts, _n, gid = struct.unpack("<qqB16s", a)
                 out(sum=rdec(r.ok.payload.to_bytes()).sum, seq=rseq, gid_echoed=gid == GID,

@@ -38,6 +38,7 @@ def main(argv=None) -> int:
     from robocourse.bus.context import Context
     from robocourse.bus.executors import SingleThreadedExecutor
     from robocourse.bus.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from robocourse.bus.zenoh.processes import exit_with_parent
     from robocourse.msgs import REGISTRY
     from robocourse.msgs.example_interfaces import AddTwoInts
     from robocourse.msgs.std_msgs import String
@@ -74,7 +75,7 @@ def main(argv=None) -> int:
         node.create_subscription(t, "/ping", pub.publish, qos)
     ex.add_node(node)
     print("READY", ctx.transport.zid, flush=True)
-    threading.Thread(target=_exit_with_parent, daemon=True).start()
+    threading.Thread(target=exit_with_parent, daemon=True).start()
     try:
         while ctx.ok():
             ex.spin_once(timeout_sec=0.1)
@@ -104,15 +105,6 @@ def _fibonacci_server(node, period):
                         cancel_callback=lambda _goal: CancelResponse.ACCEPT)
 
 
-def _exit_with_parent():
-    """Stop when our stdin closes (the parent died or closed the pipe): no orphans."""
-    try:
-        sys.stdin.read()
-    except Exception:  # noqa: BLE001
-        pass
-    import os
-
-    os._exit(0)
 
 
 if __name__ == "__main__":

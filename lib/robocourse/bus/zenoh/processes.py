@@ -196,7 +196,8 @@ atexit.register(close_all)
 
 
 # ---------------------------------------------------------------- the child's side
-def _exit_with_parent():
+def exit_with_parent():
+    """Stop when our stdin closes (the parent died or closed the pipe): no orphans."""
     try:
         sys.stdin.read()
     except Exception:  # noqa: BLE001
@@ -217,7 +218,7 @@ def _resolve(spec):
 
 def _main() -> int:
     spec = json.loads(sys.stdin.readline())
-    threading.Thread(target=_exit_with_parent, daemon=True).start()
+    threading.Thread(target=exit_with_parent, daemon=True).start()
     out = sys.stdout
     try:
         fn = _resolve(spec)
