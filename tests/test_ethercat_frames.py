@@ -169,3 +169,153 @@ def test_tshark_decodes_our_frames_with_the_right_field_values(tmp_path):
     reg = subprocess.run([TSHARK, "-r", str(p), "-Y", "frame.number == 2", "-T", "fields",
                           "-e", "ecat.reg.revision"], capture_output=True, text=True, timeout=60)
     assert reg.stdout.strip() == "0x13"
+
+
+# ---- one hand-derived frame per command ---------------------------------------------------
+# Every vector below is written out from the reference's field layout, not from our encoder:
+#   Ethernet II: dst 6 | src 6 | EtherType 0x88A4 big-endian ("88a4")
+#   EtherCAT header u16 LE: bits 0-10 length of all datagrams, bits 12-15 type 1
+#     -> a length L < 256 is written "LL10" (e.g. 14 = 0x0e -> "0e10")
+#   datagram: cmd u8 | idx u8 | ADP u16 LE + ADO u16 LE (or logical u32 LE) |
+#             len u16 LE (bits 0-10 len, 14 C, 15 M) | IRQ u16 LE | data | WKC u16 LE
+#   one datagram of n data bytes is 10 + n + 2 bytes, so L = 12 + n; frames under 60 bytes
+#   (no FCS) end with zero padding up to 60.
+REQ = "ffffffffffff" "010101010101" "88a4"  # broadcast dst, SOEM's source, EtherType
+REP = "ffffffffffff" "030101010101" "88a4"  # a reply: a slave set bit 1 of the first src byte
+
+
+def _pad(hexstr: str) -> bytes:
+    raw = bytes.fromhex(hexstr)
+    return raw + bytes(max(0, 60 - len(raw)))
+
+
+# (cmd, src, idx, adp, ado, data, circulating, irq, wkc, expected frame on the wire)
+ONE_PER_COMMAND = [
+    # NOP, idx 0x01, address 0:0, 2 data bytes -> L = 14; 30 bytes + 30 bytes padding
+    (Command.NOP, REQ, 0x01, 0x0000, 0x0000, "0000", False, 0, 0, _pad(
+        REQ + "0e10" + "00" "01" "0000" "0000" "0200" "0000" + "0000" + "0000")),
+    # APRD of AL status 0x0130 at position 2: ADP = -2 = 0xFFFE -> "feff", ADO "3001", len 2
+    (Command.APRD, REQ, 0x02, 0xFFFE, 0x0130, "0000", False, 0, 0, _pad(
+        REQ + "0e10" + "01" "02" "feff" "3001" "0200" "0000" + "0000" + "0000")),
+    # APWR station address 0x0010 = 0x1002 to position 1 (ADP -1 = 0xFFFF): data "0210"
+    (Command.APWR, REQ, 0x03, 0xFFFF, 0x0010, "0210", False, 0, 0, _pad(
+        REQ + "0e10" + "02" "03" "ffff" "1000" "0200" "0000" + "0210" + "0000")),
+    # APRW reply after 3 slaves: ADP 0 came back as 3 ("0300"), ADO 0x0120 "2001", old value
+    # 0x0001 read back, IRQ 0x0004 (SOEM's event mask 0x0004), WKC 3 = read + write
+    (Command.APRW, REP, 0x04, 0x0003, 0x0120, "0100", False, 0x0004, 3, _pad(
+        REP + "0e10" + "03" "04" "0300" "2001" "0200" "0400" + "0100" + "0300")),
+    # FPRD of EEPROM status 0x0502 from station 0x1001: ADP "0110", ADO "0205"
+    (Command.FPRD, REQ, 0x05, 0x1001, 0x0502, "0000", False, 0, 0, _pad(
+        REQ + "0e10" + "04" "05" "0110" "0205" "0200" "0000" + "0000" + "0000")),
+    # FPWR 0x0502 len 6 = {u16 0x0100 read command, u32 word 0x000A product} -> L = 18 "1210"
+    (Command.FPWR, REQ, 0x06, 0x1002, 0x0502, "0001" "0a000000", False, 0, 0, _pad(
+        REQ + "1210" + "05" "06" "0210" "0205" "0600" "0000" + "00010a000000" + "0000")),
+    # FPRW AL control 0x0120 = 0x0004 at 0x1003 with C set: len field 0x4002 -> "0240"
+    (Command.FPRW, REQ, 0x07, 0x1003, 0x0120, "0400", True, 0, 0, _pad(
+        REQ + "0e10" + "06" "07" "0310" "2001" "0240" "0000" + "0400" + "0000")),
+    # BRD reply of the golden pair (2 slaves): ADP 2, data = type bytes OR'ed 0x13 0x01, WKC 2
+    (Command.BRD, REP, 0x04, 0x0002, 0x0000, "1301", False, 0, 2, _pad(
+        REP + "0e10" + "07" "04" "0200" "0000" "0200" "0000" + "1301" + "0200")),
+    # BWR AL control 0x0120 = 0x11 (INIT | ACK), 1 byte as SOEM v1.4.0 -> L = 13 "0d10"
+    (Command.BWR, REQ, 0x09, 0x0000, 0x0120, "11", False, 0, 0, _pad(
+        REQ + "0d10" + "08" "09" "0000" "2001" "0100" "0000" + "11" + "0000")),
+    # BRW reply of 0x0981 (1 byte) after 2 slaves: ADP 2, WKC 6 = 2 x (read 1 + write 2)
+    (Command.BRW, REP, 0x0A, 0x0002, 0x0981, "00", False, 0, 6, _pad(
+        REP + "0d10" + "09" "0a" "0200" "8109" "0100" "0000" + "00" + "0600")),
+    # LRD of 4 bytes at logical 0x00010000 (group 1's start): address bytes "00000100"
+    (Command.LRD, REQ, 0x0B, 0x0000, 0x0001, "00000000", False, 0, 0, _pad(
+        REQ + "1010" + "0a" "0b" "00000100" "0400" "0000" + "00000000" + "0000")),
+    # LWR of 2 output bytes 0xA5 0x5A at logical 0x00000004: "04000000", L = 14
+    (Command.LWR, REQ, 0x0C, 0x0004, 0x0000, "a55a", False, 0, 0, _pad(
+        REQ + "0e10" + "0b" "0c" "04000000" "0200" "0000" + "a55a" + "0000")),
+    # LRW reply at logical 0: 3 bytes (1 output byte 0x05, 2 input bytes), WKC 3 = 2 x 1 + 1
+    (Command.LRW, REP, 0x0D, 0x0000, 0x0000, "053412", False, 0, 3, _pad(
+        REP + "0f10" + "0c" "0d" "00000000" "0300" "0000" + "053412" + "0300")),
+    # ARMW reply as TwinCAT's: ADP 0 came back as 1 from one slave, 0x0910 "1009", 4 bytes of
+    # system time 0x12345678 -> "78563412", WKC 1 -> L = 16 "1010"
+    (Command.ARMW, REP, 0x0E, 0x0001, 0x0910, "78563412", False, 0, 1, _pad(
+        REP + "1010" + "0d" "0e" "0100" "1009" "0400" "0000" + "78563412" + "0100")),
+    # FRMW of the reference clock 0x1001's 0x0910, 8 bytes as SOEM -> L = 20 "1410"
+    (Command.FRMW, REQ, 0x0F, 0x1001, 0x0910, "00" * 8, False, 0, 0, _pad(
+        REQ + "1410" + "0e" "0f" "0110" "1009" "0800" "0000" + "00" * 8 + "0000")),
+]
+
+
+def test_the_table_has_one_vector_per_command():
+    assert [v[0] for v in ONE_PER_COMMAND] == list(Command)
+
+
+@pytest.mark.parametrize("cmd, src, idx, adp, ado, data, circ, irq, wkc, expected", ONE_PER_COMMAND,
+                         ids=[v[0].name for v in ONE_PER_COMMAND])
+def test_each_command_encodes_to_and_decodes_from_its_hand_derived_frame(
+        cmd, src, idx, adp, ado, data, circ, irq, wkc, expected):
+    d = Datagram(cmd, idx, adp, ado, bytearray.fromhex(data), wkc, irq, circ)
+    sent = encode_frame(Frame([d], src=bytes.fromhex(src[12:24])))
+    assert len(expected) == 60 and sent == expected
+    f = decode_frame(expected)
+    assert (f.dst, f.src, f.ecat_type) == (b"\xff" * 6, bytes.fromhex(src[12:24]), 1)
+    (back,) = f.datagrams
+    assert (back.cmd, back.idx, back.adp, back.ado, back.data.hex(), back.circulating, back.irq,
+            back.wkc) == (cmd, idx, adp, ado, data, circ, irq, wkc)
+    if cmd in (Command.LRD, Command.LWR, Command.LRW):
+        assert back.logical == int.from_bytes(expected[18:22], "little") == adp | ado << 16
+
+
+# SOEM's ecx_FPRD_multi: AL status (0x0130, 6 bytes) of three stations in one frame. Each
+# datagram is 10 + 6 + 2 = 18 bytes, so L = 54 = 0x36 -> "3610"; the first two carry M:
+# len field 6 | 0x8000 = 0x8006 -> "0680", the last one "0600". 16 + 54 = 70 bytes: no padding.
+MULTI_FPRD = bytes.fromhex(
+    REQ + "3610"
+    + "04" "21" "0110" "3001" "0680" "0000" + "000000000000" + "0000"  # FPRD 0x1001:0x0130, M
+    + "04" "21" "0210" "3001" "0680" "0000" + "000000000000" + "0000"  # FPRD 0x1002:0x0130, M
+    + "04" "21" "0310" "3001" "0600" "0000" + "000000000000" + "0000")  # FPRD 0x1003, last
+# SOEM's reset of SM0..3 (BWR 0x0800, 32 zero bytes): 16 + 10 + 32 + 2 = 60 bytes exactly,
+# so padding adds nothing. L = 44 = 0x2c -> "2c10", len 32 = 0x20 -> "2000".
+BWR_SM_RESET = bytes.fromhex(REQ + "2c10" + "08" "22" "0000" "0008" "2000" "0000" + "00" * 32 + "0000")
+
+
+def test_multi_datagram_frame_sets_m_on_all_but_the_last_and_needs_no_padding():
+    dgs = [datagram(Command.FPRD, adr, 0x0130, 6, idx=0x21) for adr in (0x1001, 0x1002, 0x1003)]
+    raw = encode_frame(Frame(dgs))
+    assert len(MULTI_FPRD) == 70 and raw == MULTI_FPRD
+    back = decode_frame(MULTI_FPRD).datagrams
+    assert [(d.cmd, d.idx, d.adp, d.ado, len(d.data), d.wkc) for d in back] == [
+        (Command.FPRD, 0x21, adr, 0x0130, 6, 0) for adr in (0x1001, 0x1002, 0x1003)]
+
+
+def test_a_frame_of_exactly_60_bytes_gets_no_padding():
+    raw = encode_frame(Frame([datagram(Command.BWR, 0, 0x0800, bytes(32), idx=0x22)]))
+    assert len(BWR_SM_RESET) == 60 and raw == BWR_SM_RESET
+    (d,) = decode_frame(BWR_SM_RESET).datagrams
+    assert (d.cmd, d.idx, d.adp, d.ado, bytes(d.data), d.wkc) == (Command.BWR, 0x22, 0, 0x0800, bytes(32), 0)
+
+
+@pytest.mark.skipif(TSHARK is None, reason="tshark not installed (.ci/run installs it: apt-get install tshark)")
+def test_tshark_reads_every_hand_derived_vector_with_the_same_fields(tmp_path):
+    """An independent decoder (Wireshark's) on the same bytes: a mistake made the same way in
+    our encoder and decoder would still show here."""
+    p = tmp_path / "vectors.pcap"
+    with PcapWriter(p) as w:
+        for v in ONE_PER_COMMAND:
+            w.write(v[-1])
+        w.write(MULTI_FPRD)
+    fields = ["ecatf.length", "ecat.cmd", "ecat.idx", "ecat.adp", "ecat.ado", "ecat.lad",
+              "ecat.subframe.length", "ecat.subframe.circulating", "ecat.subframe.more",
+              "ecat.int", "ecat.cnt"]
+    cmd = [TSHARK, "-r", str(p), "-T", "fields", "-E", "separator=|"]
+    for f in fields:
+        cmd += ["-e", f]
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=60, check=True).stdout
+    rows = [dict(zip(fields, line.split("|"))) for line in out.strip().splitlines()]
+    assert len(rows) == 16
+    for row, (c, _src, idx, adp, ado, data, circ, irq, wkc, _raw) in zip(rows, ONE_PER_COMMAND):
+        logical = c in (Command.LRD, Command.LWR, Command.LRW)
+        assert row == {
+            "ecatf.length": f"0x{12 + len(data) // 2:04x}", "ecat.cmd": f"0x{int(c):02x}",
+            "ecat.idx": f"0x{idx:02x}", "ecat.adp": "" if logical else f"0x{adp:04x}",
+            "ecat.ado": "" if logical else f"0x{ado:04x}",
+            "ecat.lad": f"0x{adp | ado << 16:08x}" if logical else "",
+            "ecat.subframe.length": str(len(data) // 2), "ecat.subframe.circulating": str(int(circ)),
+            "ecat.subframe.more": "0", "ecat.int": f"0x{irq:04x}", "ecat.cnt": str(wkc)}, c.name
+    assert rows[15]["ecat.subframe.more"] == "1,1,0" and rows[15]["ecat.adp"] == "0x1001,0x1002,0x1003"
+    assert rows[15]["ecatf.length"] == "0x0036"
