@@ -20,10 +20,11 @@ from robocourse.ethercat.devices import (
     drive_outputs,
 )
 from robocourse.ethercat.errors import MailboxError, SiiError
-from robocourse.ethercat.esc import AL_SM_WATCHDOG, AL_SYNC_ERROR, OP, SAFEOP
-from robocourse.ethercat.frames import Command, decode_frame
+from robocourse.ethercat.esc import AL_SM_WATCHDOG, AL_SYNC_ERROR, OP, SAFEOP, SOF_DELAY_NS
+from robocourse.ethercat.frames import Command, datagram, decode_frame
 from robocourse.ethercat.master import EC_NOFRAME, MappedObject, Master
 from robocourse.ethercat.pcap import PcapWriter, read_pcap
+from robocourse.ethercat.ros2_control import next_controlword
 
 
 class SimClock:
@@ -292,6 +293,76 @@ def test_without_drift_compensation_the_clocks_drift_apart():
     assert 250_000.0 < bus.sync_error_ns() < 260_000.0 + start
 
 
+def test_armw_of_four_bytes_as_twincat_sends_it_also_keeps_clocks_within_100_ns():
+    """TwinCAT's drift compensation: ARMW ADP 0, 0x0910, 4 bytes (32-bit system time) in every
+    cycle instead of SOEM's 8-byte FRMW (reference, distributed clocks at runtime)."""
+    clock = SimClock()
+    bus = dc_bus(clock)
+    m = Master()
+    m.open(bus)
+    m.drift_compensation = False  # no FRMW: the ARMW below is the only 0x0910 write
+    m.bring_up()
+    ref = bus.slaves[0]
+    for _ in range(3000):
+        clock.advance(1_000_000)
+        (d,) = m.exchange([datagram(Command.ARMW, 0, 0x0910, 4)])
+        ref_time = ref.system_time(ref.t_port0 + SOF_DELAY_NS)  # what position 0 put in
+        m.send_processdata()
+        m.receive_processdata()
+    # position 0 read (+1), the three after it wrote (+1 each); every slave incremented ADP
+    assert (d.adp, d.wkc) == (4, 4)
+    assert int.from_bytes(d.data, "little") == ref_time & 0xFFFFFFFF  # the low 32 bits
+    assert bus.sync_error_ns() < 100.0
+    # each follower's last system time difference 0x092C (bit 31 = sign) is under 100 ns too
+    assert all(int.from_bytes(e.mem[0x092C:0x0930], "little") & 0x7FFFFFFF < 100 for e in bus.slaves[1:])
+
+
+def test_config_dc_writes_offsets_from_the_local_clocks_and_delays_from_the_forwarding_times(monkeypatch):
+    """0x0920 = master time - the slave's receive time at its processing unit (0x0918, latched by
+    BWR 0x0900); 0x0928 = SOEM's line delay from the port receive times."""
+    clock = SimClock()
+    power_on = (0, 3_000_000, 7_250_000, 12_345_670)  # each local clock = bus time - power_on
+    # forward_ns[i]: port 0 of slave i -> port 0 of slave i+1; return_ns[i]: back through slave i.
+    # Chosen symmetric (return_ns[i] == forward_ns[i-1]; the last slave turns the frame round in
+    # forward_ns[3] == forward_ns[2]) so SOEM's half-round-trip estimate is exactly the one-way time.
+    fwd, ret = (300, 700, 450, 450), (250, 300, 700, 100)
+    bus = Bus([Cia402Drive(power_on_ns=p) for p in power_on], clock=clock,
+              forward_ns=fwd, return_ns=ret)
+    unix_ns = 1_764_115_200_123_456_000
+    monkeypatch.setattr("robocourse.ethercat.master.time.time_ns", lambda: unix_ns)
+    master_time = unix_ns - 946_684_800 * 1_000_000_000  # EtherCAT's epoch is 2000-01-01
+    latched, process = [], bus.process
+
+    def spy(raw):  # the bus time at which the latch frame (BWR 0x0900) left the master
+        reply = process(raw)
+        d = decode_frame(raw).datagrams[0]
+        if (d.cmd, d.ado) == (Command.BWR, 0x0900):
+            latched.append(bus.slaves[0].t_port0)
+        return reply
+
+    bus.process = spy
+    m = Master()
+    m.open(bus)
+    m.config_init()
+    m.config_map()
+    assert m.config_dc() is True
+    t0 = int(latched[0])
+    assert latched == [t0]
+    arrival = (0, 300, 1000, 1450)  # cumulative forward_ns: when the frame reaches each port 0
+    sof = [(t0 + a + SOF_DELAY_NS - p) // 10 * 10 for a, p in zip(arrival, power_on)]  # 10-ns ticks
+    offsets = [int.from_bytes(e.mem[0x0920:0x0928], "little") for e in bus.slaves]
+    assert offsets == [(master_time - x) % (1 << 64) for x in sof]
+    # SOEM: delay(i) = delay(i-1) + (round trip of i-1 - round trip of i) / 2, the last slave's
+    # round trip 0 -> 0, (300 + 300)/2 = 300, + (700 + 700)/2 = 1000, + (450 + 450)/2 = 1450
+    delays = [int.from_bytes(e.mem[0x0928:0x092C], "little") for e in bus.slaves]
+    assert delays == [s.dc_delay for s in m.slaves] == list(arrival)
+    # together: at any instant a slave's system time plus its delay is the reference's system
+    # time, i.e. the offsets put every clock on the master's time as the latch frame passed it
+    for t in (t0, t0 + 1_000_000, t0 + 123_456_780):
+        ref = bus.slaves[0].system_time(t)
+        assert [e.system_time(t) + d for e, d in zip(bus.slaves, delays)] == [ref] * 4
+
+
 def test_sync0_events_fire_together_on_every_drive():
     clock = SimClock()
     bus = dc_bus(clock)
@@ -307,18 +378,6 @@ def test_sync0_events_fire_together_on_every_drive():
     assert all(abs(b - a - 1_000_000) < 200.0 for a, b in zip(times, later))  # 1 ms apart
 
 
-def auto_cw(sw, cw):
-    """ethercat_driver_ros2's CiA 402 automatic transitions."""
-    st = cia402_state(sw)
-    if st == SWITCH_ON_DISABLED:
-        return (cw & 0x7E) | 0x06
-    if st == READY_TO_SWITCH_ON:
-        return (cw & 0x77) | 0x07
-    if st == SWITCHED_ON:
-        return (cw & 0x7F) | 0x0F
-    return cw
-
-
 def test_cia402_drive_enables_with_automatic_transitions_and_tracks_csp_target():
     clock = SimClock()
     bus = Bus([Coupler(), Cia402Drive()], clock=clock)
@@ -329,7 +388,7 @@ def test_cia402_drive_enables_with_automatic_transitions_and_tracks_csp_target()
         sw, pos, *_ = drive_inputs(drive.input)
         if not seen or seen[-1] != cia402_state(sw):
             seen.append(cia402_state(sw))
-        cw = auto_cw(sw, cw)
+        cw = next_controlword(sw, cw, reset_edge=False)  # ethercat_driver_ros2's transitions
         drive.output = drive_outputs(cw, pos)
         cycle(m, clock)
     assert seen == [SWITCH_ON_DISABLED, READY_TO_SWITCH_ON, SWITCHED_ON, OPERATION_ENABLED]
