@@ -8,7 +8,7 @@ import pytest
 
 import robocourse.drivers as drivers
 from robocourse.control.bringup import bringup
-from robocourse.control.hardware.types import ACTIVE, INACTIVE
+from robocourse.control.hardware.types import ACTIVE, INACTIVE, return_type
 from robocourse.ethercat.devices import FAULT, OPERATION_ENABLED, cia402_state
 from robocourse.ethercat.ros2_control import ARM_JOINTS, ethercat_arm_urdf, next_controlword
 
@@ -146,3 +146,41 @@ def test_the_plugin_is_declared_by_importing_robocourse_ethercat_alone():
 def test_ethercat_arm_urdf_refuses_a_bad_control_frequency(freq):
     with pytest.raises(ValueError, match="control_frequency"):
         ethercat_arm_urdf(control_frequency=freq)
+
+
+@pytest.mark.parametrize("outage_ns, acked", [(3_000_000, 0), (500_000_000, 7)], ids=["3ms", "500ms"])
+def test_cable_cut_then_reconnect_reactivate_and_the_drives_follow_commands_again(outage_ns, acked):
+    cm, system = make()
+    try:
+        cm.step(10)
+        q0 = q(system)
+        system.bus.cut_after(4)                  # coupler + the first three drives still answer
+        cm.step(3)
+        hw = cm.rm.components["UR5e"].wrapper
+        assert hw.state.label == "unconfigured"  # read() returned ERROR
+        assert {n: s.state for n, s in cm.controllers.items()} == {"joint_state_broadcaster": INACTIVE,
+                                                                  "forward_position_controller": INACTIVE}
+        assert system.last_wkc == 9              # 3 drives x (write 2 + read 1)
+        assert "slave 5 not responding (lost)" in system.last_error
+        # the cable stays out this long; no frame reaches any slave meanwhile, so after 500 ms the
+        # 100 ms SM watchdog has expired on all 7 slaves with outputs (6 drives, the RC2008)
+        system.clock.ns += outage_ns
+        system.bus.reconnect()
+        n_log = len(cm.log.records)
+        assert cm.set_hardware_component_state("UR5e", "active") == return_type.OK
+        assert hw.state.label == "active" and system.last_error == ""
+        recovery = [r.msg for r in cm.log.records[n_log:]]
+        assert sum("SAFE_OP + ERROR, attempting ack" in m for m in recovery) == acked
+        assert cm.switch_controller(SPAWN) == return_type.OK
+        assert {n: s.state for n, s in cm.controllers.items()} == {"joint_state_broadcaster": ACTIVE,
+                                                                  "forward_position_controller": ACTIVE}
+        target = q0 + np.array([0.1, -0.1, 0.1, 0.1, -0.1, 0.1])   # drives 4-6 sat behind the cut
+        cm.controllers["forward_position_controller"].c.set_command(list(target))
+        system.set_command("io_out/dig_output.2", 1.0)
+        cm.step(1000)
+        assert system.last_wkc == system.master.expected_wkc == 21
+        assert all(cia402_state(int(system.get_state(f"{j}/statusword"))) == OPERATION_ENABLED for j in ARM_JOINTS)
+        np.testing.assert_allclose(q(system), target, atol=1e-3)
+        assert system.bus.slaves[8].outputs == 0b0000_0010
+    finally:
+        cm.shutdown()

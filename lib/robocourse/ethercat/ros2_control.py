@@ -42,7 +42,10 @@ ERROR, so the controller manager deactivates the controllers. A CiA 402 drive fa
 drive's business, as in ethercat_driver_ros2: it disables (no torque), the ``statusword``
 state interface shows it, and a rising edge on ``reset_fault`` (or ``auto_fault_reset``)
 brings it back through the automatic transitions. Re-activating the component after an
-error resets faults and runs the enable sequence again.
+error first brings the bus back (configure runs simple_test's ecatcheck every cycle until the
+working counter is the expected one: error acknowledge for slaves whose SM watchdog expired
+while the cable was out, SAFE_OP -> OP, lost slaves found again), then resets faults and runs
+the enable sequence again.
 """
 
 from __future__ import annotations
@@ -76,6 +79,7 @@ CIA402 = "ethercat_generic_plugins/EcCiA402Drive"
 GENERIC = "ethercat_generic_plugins/GenericEcSlave"
 _MODES = {8: "position", 9: "velocity", 10: "effort"}
 _ENABLE_CYCLES = 200
+_RECOVER_CYCLES = 50
 
 
 #: The UR5e's arm joints (ur_description's names); the gripper finger and the F/T sensor get no module.
@@ -301,9 +305,26 @@ class EthercatSystem(SystemInterface):
                 self.master = None
                 return CallbackReturn.FAILURE
         self._bind()
-        self._exchange()
+        if not self._recover():
+            self.get_logger().error(f"EtherCAT bus not back in {_RECOVER_CYCLES} cycles: {self.last_error}")
+            return CallbackReturn.FAILURE
+        self.last_error = ""
         self.read(0.0, 0.0)
         return CallbackReturn.SUCCESS
+
+    def _recover(self) -> bool:
+        """Exchange process data until the working counter is the expected one, running one
+        pass of the master's ecatcheck (ack errors, request OP, find lost slaves) after every
+        short cycle; at bring-up the first exchange already returns it."""
+        m = self.master
+        for _ in range(_RECOVER_CYCLES):
+            wkc = self._exchange()
+            if wkc == m.expected_wkc:
+                return True
+            self.last_error = str(m.diagnose(wkc))
+            for msg in m.check():
+                self.get_logger().info(msg)
+        return False
 
     def _bind(self) -> None:
         si, ci, m = self.state_index, self.command_index, self.master
