@@ -6,7 +6,9 @@ spawners): ``bringup("ur5e", plugin="robocourse/MujocoSystem", spawn=["joint_sta
 URDF, the shipped ``config/<robot>_controllers.yaml`` (or ``param_file``) and those controllers
 spawned (``inactive=[...]`` spawns them configured but inactive). ``variant="modular_fts"`` brings
 up RRBot wired as one actuator per joint plus an external F/T sensor (demos' examples 6 and 5) with
-``config/rrbot_modular_fts_controllers.yaml``.
+the same ``config/rrbot_controllers.yaml`` (the controllers see the same joints and interfaces; example
+5's force_torque_sensor_broadcaster is not in robocourse, the joint_state_broadcaster's
+/dynamic_joint_states carries the sensor's values).
 """
 
 from __future__ import annotations
@@ -18,8 +20,8 @@ from .manager.controller_manager import ControllerManager
 CONFIG = Path(__file__).with_name("config")
 
 
-def default_param_file(robot: str, variant: str | None = None) -> Path:
-    return CONFIG / (f"{robot}_{variant}_controllers.yaml" if variant else f"{robot}_controllers.yaml")
+def default_param_file(robot: str) -> Path:
+    return CONFIG / f"{robot}_controllers.yaml"
 
 
 def bringup(robot: str = "rrbot", *, urdf: str | None = None, plugin: str | None = None, param_file=None,
@@ -33,7 +35,7 @@ def bringup(robot: str = "rrbot", *, urdf: str | None = None, plugin: str | None
 
         urdf = urdf_text(robot, plugin=plugin, variant=variant)
         if param_file is None:
-            param_file = default_param_file(robot, variant)
+            param_file = default_param_file(robot)
     elif plugin is not None:
         raise ValueError("plugin= applies to a shipped robot; edit the <plugin> of your own URDF instead")
     elif variant is not None:
