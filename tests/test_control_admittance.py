@@ -89,7 +89,8 @@ def compensated(sim, **over):
     ("command_interfaces", "[effort]", "Entry 'effort' in parameter 'command_interfaces' is not in the set '{position, velocity}'"),
 ])
 def test_one_parameter_is_invalid(key, value, message):
-    # mirrors test_admittance_controller.cpp: TEST_P(AdmittanceControllerTestParameterizedInvalidParameters, one_parameter_is_invalid)
+    # mirrors admittance_controller/test/test_admittance_controller.cpp: TEST_P(AdmittanceControllerTestParameterizedInvalidParameters, invalid_parameters)
+    # (named one_parameter_is_invalid in older versions of the file)
     cm = ControllerManager(urdf_text("ur5e", plugin="robocourse/MujocoSystem"),
                            params=params_text({"adm": (ADM, adm_params(**{key: value}))}),
                            log=LogSink(log_to_stderr=False))
@@ -99,7 +100,8 @@ def test_one_parameter_is_invalid(key, value, message):
 
 @pytest.mark.parametrize("missing", ["joints", "admittance.mass", "admittance.stiffness", "ft_sensor.name"])
 def test_missing_of_parameters(missing):
-    # mirrors test_admittance_controller.cpp: TEST_P(AdmittanceControllerTestParameterizedMissingParameters, missing_of_parameters)
+    # mirrors admittance_controller/test/test_admittance_controller.cpp: TEST_P(AdmittanceControllerTestParameterizedMissingParameters,
+    # one_init_parameter_is_missing) (one_parameter_is_missing in older versions)
     p = adm_params()
     del p[missing]
     cm = ControllerManager(urdf_text("ur5e", plugin="robocourse/MujocoSystem"), params=params_text({"adm": (ADM, p)}),
@@ -109,7 +111,7 @@ def test_missing_of_parameters(missing):
 
 
 def test_all_parameters_set_configure_success_and_check_interfaces():
-    # mirrors test_admittance_controller.cpp: TEST_F(AdmittanceControllerTest, all_parameters_set_configure_success)
+    # mirrors admittance_controller/test/test_admittance_controller.cpp: TEST_F(AdmittanceControllerTest, all_parameters_set_configure_success)
     # and TEST_F(AdmittanceControllerTest, check_interfaces)
     cm = arm_cm({"adm": (ADM, adm_params())})
     c = cm.controllers["adm"].c
@@ -123,6 +125,7 @@ def test_all_parameters_set_configure_success_and_check_interfaces():
 
 
 def test_joints_must_be_the_kinematic_chain_in_order():
+    # no upstream counterpart: robocourse checks the joints against its kinematics at configure
     p = adm_params(joints=f"[{', '.join(reversed(ARM))}]")
     cm = ControllerManager(urdf_text("ur5e", plugin="robocourse/MujocoSystem"), params=params_text({"adm": (ADM, p)}),
                            log=LogSink(log_to_stderr=False))
@@ -133,7 +136,7 @@ def test_joints_must_be_the_kinematic_chain_in_order():
 
 # --- update ----------------------------------------------------------------------------------------------
 def test_update_success_gravity_compensated_tool_holds_still():
-    # mirrors test_admittance_controller.cpp: TEST_F(AdmittanceControllerTest, update_success) (zero external wrench)
+    # mirrors admittance_controller/test/test_admittance_controller.cpp: TEST_F(AdmittanceControllerTest, update_success) (zero external wrench)
     sim = RobotSim("ur5e", payload_mass=1.0)
     cm = arm_cm({"adm": (ADM, compensated(sim))}, sim=sim)
     start = tip(q(cm))
@@ -144,6 +147,7 @@ def test_update_success_gravity_compensated_tool_holds_still():
 
 
 def test_uncompensated_tool_weight_sinks_the_tip_by_weight_over_stiffness():
+    # no upstream counterpart: upstream's unit tests do not run the admittance law against a simulated arm
     sim = RobotSim("ur5e", payload_mass=1.0)
     m, _ = sim.tool_mass_properties()
     cm = arm_cm({"adm": (ADM, adm_params())}, sim=sim)
@@ -156,6 +160,7 @@ def test_uncompensated_tool_weight_sinks_the_tip_by_weight_over_stiffness():
 
 
 def test_stiffness_zero_axis_is_a_pure_damper_that_keeps_moving():
+    # no upstream counterpart: upstream's unit tests do not run the admittance law against a simulated arm
     sim = RobotSim("ur5e", payload_mass=1.0)
     cm = arm_cm({"adm": (ADM, adm_params(**{"admittance.stiffness": "[500.0, 500.0, 0.0, 50.0, 50.0, 50.0]",
                                              "admittance.damping_ratio": "[1.0, 1.0, 1.0, 1.0, 1.0, 1.0]"}))}, sim=sim)
@@ -169,6 +174,7 @@ def test_stiffness_zero_axis_is_a_pure_damper_that_keeps_moving():
 
 
 def test_selected_axes_false_keeps_the_axis_stiff():
+    # no upstream counterpart: upstream's unit tests do not run the admittance law against a simulated arm
     sim = RobotSim("ur5e", payload_mass=1.0)
     cm = arm_cm({"adm": (ADM, adm_params(**{"admittance.selected_axes": "[true, true, false, true, true, true]"}))},
                 sim=sim)
@@ -193,6 +199,7 @@ def corrupt_sensor(cm, interface: str, value: float) -> None:
 
 
 def test_non_finite_force_reading_returns_error_and_deactivates():
+    # no upstream counterpart: test_admittance_controller.cpp has no non-finite sensor case
     sim = RobotSim("ur5e")
     cm = arm_cm({"adm": (ADM, compensated(sim))}, sim=sim)
     cm.switch_controller(["adm"], [], STRICT)
@@ -204,7 +211,7 @@ def test_non_finite_force_reading_returns_error_and_deactivates():
 
 
 def test_receive_joint_references_when_not_chained():
-    # mirrors test_admittance_controller.cpp: TEST_F(AdmittanceControllerTest, receive_message_and_publish_updated_status)
+    # mirrors admittance_controller/test/test_admittance_controller.cpp: TEST_F(AdmittanceControllerTest, receive_message_and_publish_updated_status)
     sim = RobotSim("ur5e")
     cm = arm_cm({"adm": (ADM, compensated(sim))}, sim=sim)
     cm.switch_controller(["adm"], [], STRICT)
@@ -218,6 +225,7 @@ def test_receive_joint_references_when_not_chained():
 
 
 def test_rotation_vector_of_a_quarter_turn_about_z():
+    # no upstream counterpart: a robocourse helper (upstream uses Eigen's AngleAxis)
     c, s = 0.0, 1.0
     R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     assert rotation_vector(R) == pytest.approx([0.0, 0.0, math.pi / 2])
@@ -233,8 +241,10 @@ def chain_cm(sim=None):
 
 
 def test_chain_jtc_preceding_admittance_activation_order_rules():
-    # mirrors ros2_control test_controllers_chaining_with_controller_manager.cpp: activation needs the
-    # followers active (or in the same request); a follower cannot leave while its preceding stays
+    # mirrors ros2_control controller_manager/test/test_controllers_chaining_with_controller_manager.cpp:
+    # TEST_P(TestControllerChainingWithControllerManager, test_chained_controllers) and
+    # test_chained_controllers_activation_error_handling: activation needs the followers active (or in the
+    # same request); a follower cannot leave while its preceding controller stays active
     cm, _ = chain_cm()
     assert cm.ordered_controllers() == ["jtc", "adm"]
     assert cm.switch_controller(["jtc"], [], STRICT) == return_type.ERROR
@@ -249,6 +259,7 @@ def test_chain_jtc_preceding_admittance_activation_order_rules():
 
 
 def test_chain_jtc_trajectory_through_admittance_reaches_the_goal():
+    # no upstream counterpart: upstream chains test controllers, not a JTC into an admittance controller
     cm, sim = chain_cm()
     assert cm.switch_controller(["adm", "jtc"], [], STRICT) == return_type.OK
     cm.step(5)
@@ -271,7 +282,9 @@ def test_chain_jtc_trajectory_through_admittance_reaches_the_goal():
 
 
 def test_hardware_error_deactivates_the_whole_chain():
-    # mirrors ros2_control's rule: a failing update deactivates the controller's chain group
+    # mirrors ros2_control controller_manager/test/test_controllers_chaining_with_controller_manager.cpp:
+    # TEST_P(TestControllerChainingWithControllerManager, test_chained_controllers_deactivation_error_handling):
+    # an update() returning ERROR deactivates the controller and those preceding it
     cm, sim = chain_cm()
     cm.switch_controller(["adm", "jtc"], [], STRICT)
     cm.step(2)
@@ -281,6 +294,7 @@ def test_hardware_error_deactivates_the_whole_chain():
 
 
 def test_a_chain_with_a_cycle_is_rejected():
+    # no upstream counterpart: not found in the chaining tests read
     sim = RobotSim("ur5e")
     a = compensated(sim, command_joints=f"[{', '.join('b/' + j for j in ARM)}]")
     b = compensated(sim, command_joints=f"[{', '.join('a/' + j for j in ARM)}]")
@@ -291,7 +305,7 @@ def test_a_chain_with_a_cycle_is_rejected():
 
 
 def test_robot_sim_infinite_command_is_refused_without_a_numpy_warning():
-    # the fixed RobotSim.step check (inf - inf used to raise a RuntimeWarning, an error under pytest)
+    # no upstream counterpart: a robocourse.sim check
     sim = RobotSim("ur5e")
     sim.commands[0] = math.inf
     with pytest.raises(ValueError, match="non-finite command"):

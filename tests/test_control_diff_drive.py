@@ -57,7 +57,7 @@ def wheel_cmds(cm):
 
 @pytest.mark.parametrize("missing", ["wheel_separation", "wheel_radius", "left_wheel_names"])
 def test_configure_fails_without_parameters(missing):
-    # mirrors test_diff_drive_controller.cpp: TEST_F(TestDiffDriveController, configure_fails_without_parameters)
+    # mirrors diff_drive_controller/test/test_diff_drive_controller.cpp: TEST_F(TestDiffDriveController, configure_fails_without_parameters)
     cm = ControllerManager(urdf(generic(body=joint("left_wheel_joint", ("velocity",), ("position",))),
                                 joints=("left_wheel_joint",)), log=LogSink(log_to_stderr=False),
                            params=(f"controller_manager:\n  ros__parameters:\n    dd:\n      type: {DD}\n"
@@ -71,6 +71,7 @@ def test_configure_fails_without_parameters(missing):
 
 @pytest.mark.parametrize("key", ["wheel_separation", "wheel_radius"])
 def test_wheel_geometry_must_be_positive(key):
+    # no upstream counterpart: diff_drive_controller/test/test_diff_drive_controller.cpp does not test wheel_separation/wheel_radius bounds
     cm = ControllerManager(urdf(generic(body=joint("left_wheel_joint", ("velocity",), ("position",))),
                                 joints=("left_wheel_joint",)), log=LogSink(log_to_stderr=False),
                            params=(f"controller_manager:\n  ros__parameters:\n    dd:\n      type: {DD}\n"
@@ -82,13 +83,14 @@ def test_wheel_geometry_must_be_positive(key):
 
 
 def test_configure_fails_with_mismatching_wheel_side_size():
-    # mirrors test_diff_drive_controller.cpp: TEST_F(TestDiffDriveController, configure_fails_with_mismatching_wheel_side_size)
+    # mirrors diff_drive_controller/test/test_diff_drive_controller.cpp: TEST_F(TestDiffDriveController, configure_fails_with_mismatching_wheel_side_size)
     cm = dd_cm(params={"right_wheel_names": "[right_wheel_joint, extra_wheel]"}, activate=False)
     assert cm.log.count("The number of left wheels [1] and the number of right wheels [2] are different") == 1
 
 
 def test_wheel_speeds_from_cmd_vel_and_exact_arc_odometry():
-    # mirrors test_diff_drive_controller.cpp: activate_succeeds_with_pos_resources_assigned + the command path
+    # mirrors diff_drive_controller/test/test_diff_drive_controller.cpp: TEST_F(TestDiffDriveController, correct_initialization_using_parameters)
+    # (cmd_vel -> wheel commands) and diff_drive_controller/test/test_odometry.cpp: TEST_F(OdometryTest, TestCurvedMotion_ExactArc)
     cm = dd_cm()
     odoms, tfs = [], []
     node = cm.context.create_node("listener")
@@ -116,6 +118,8 @@ def test_wheel_speeds_from_cmd_vel_and_exact_arc_odometry():
 
 
 def test_cmd_vel_timeout_stops_the_wheels():
+    # mirrors diff_drive_controller/test/test_diff_drive_controller.cpp: TEST_F(TestDiffDriveController, command_with_zero_timestamp_is_accepted_with_warning)
+    # and the cmd_vel_timeout part of TEST_F(TestDiffDriveController, chainable_controller_unchained_mode)
     cm = dd_cm()
     send(cm, 0.5, 0.0, stamp=0.0)   # zero stamp: taken as "now" with upstream's warning
     cm.step(1)
@@ -128,6 +132,7 @@ def test_cmd_vel_timeout_stops_the_wheels():
 
 
 def test_old_stamped_command_is_ignored():
+    # mirrors the late-message part of diff_drive_controller/test/test_diff_drive_controller.cpp: TEST_F(TestDiffDriveController, chainable_controller_unchained_mode)
     cm = dd_cm()
     cm.step(100)
     send(cm, 0.5, 0.0, stamp=0.2)    # 0.8 s old when it arrives
@@ -136,6 +141,7 @@ def test_old_stamped_command_is_ignored():
 
 
 def test_non_finite_cmd_vel_is_dropped():
+    # no upstream counterpart: diff_drive_controller/test/test_diff_drive_controller.cpp has no non-finite cmd_vel case
     cm = dd_cm()
     send(cm, math.nan, 0.0)
     cm.step(1)
@@ -143,7 +149,7 @@ def test_non_finite_cmd_vel_is_dropped():
 
 
 def test_deactivate_then_activate_zeroes_and_resumes():
-    # mirrors test_diff_drive_controller.cpp: TEST_F(TestDiffDriveController, deactivate_then_activate)
+    # mirrors diff_drive_controller/test/test_diff_drive_controller.cpp: TEST_F(TestDiffDriveController, deactivate_then_activate)
     cm = dd_cm()
     send(cm, 0.2, 0.0)
     cm.step(2)
@@ -156,6 +162,7 @@ def test_deactivate_then_activate_zeroes_and_resumes():
 
 
 def test_open_loop_odometry_integrates_the_command():
+    # mirrors diff_drive_controller/test/test_odometry.cpp: TEST_F(OdometryTest, TestOpenLoopUpdate) (through the controller, open_loop: true)
     cm = dd_cm(params={"open_loop": "true"})
     send(cm, 0.1, 0.0)
     cm.step(30)

@@ -25,12 +25,12 @@ from robocourse.sim.robots import RobotSim, urdf_text
 GRIP = "parallel_gripper_action_controller/GripperActionController"
 
 
-def mock_cm(params=None, hw_params=None, activate=True):
+def mock_cm(params=None, hw_params=None, activate=True, commands=("position",)):
     p = {"joint": "joint1", **(params or {})}
     text = (f"controller_manager:\n  ros__parameters:\n    update_rate: 100\n    grip:\n      type: {GRIP}\n"
             "grip:\n  ros__parameters:\n" + "".join(f"    {k}: {v}\n" for k, v in p.items()))
     hw = generic(params={"calculate_dynamics": "true", **(hw_params or {})},
-                 body=joint("joint1", ("position",), ("position", "velocity"), {"position": 0.0}))
+                 body=joint("joint1", commands, ("position", "velocity"), {"position": 0.0}))
     cm = ControllerManager(urdf(hw, joints=("joint1",)), params=text, log=LogSink(log_to_stderr=False))
     cm.load_and_configure("grip")
     if activate:
@@ -65,7 +65,7 @@ def grip(cm):
 
 
 def test_parameters_not_set_fails_at_load():
-    # mirrors test_parallel_gripper_controller.cpp: ParametersNotSet / JointParameterIsEmpty
+    # mirrors parallel_gripper_controller/test/test_parallel_gripper_controller.cpp: TEST_F(GripperControllerTest, ParametersNotSet) and JointParameterIsEmpty
     text = f"controller_manager:\n  ros__parameters:\n    grip:\n      type: {GRIP}\n"
     cm = ControllerManager(urdf(generic(body=joint("joint1", ("position",), ("position", "velocity"))),
                                 joints=("joint1",)), params=text, log=LogSink(log_to_stderr=False))
@@ -74,7 +74,7 @@ def test_parameters_not_set_fails_at_load():
 
 
 def test_configure_activate_claims_the_position_and_holds():
-    # mirrors test_parallel_gripper_controller.cpp: ConfigureParamsSuccess / ActivateSuccess
+    # mirrors parallel_gripper_controller/test/test_parallel_gripper_controller.cpp: TEST_F(GripperControllerTest, ConfigureParamsSuccess) and ActivateSuccess
     cm = mock_cm(params={"max_velocity_interface": '""'})
     c = grip(cm)
     assert [loan.name for loan in c.command_interfaces] == ["joint1/position"]
@@ -86,7 +86,7 @@ def test_configure_activate_claims_the_position_and_holds():
 
 
 def test_activate_deactivate_activate_success():
-    # mirrors test_parallel_gripper_controller.cpp: ActivateDeactivateActivateSuccess
+    # mirrors parallel_gripper_controller/test/test_parallel_gripper_controller.cpp: TEST_F(GripperControllerTest, ActivateDeactivateActivateSuccess)
     cm = mock_cm()
     assert cm.switch_controller([], ["grip"], STRICT) == return_type.OK
     assert cm.switch_controller(["grip"], [], STRICT) == return_type.OK
@@ -94,6 +94,7 @@ def test_activate_deactivate_activate_success():
 
 
 def test_goal_reached_at_max_velocity():
+    # no upstream counterpart: test_parallel_gripper_controller.cpp stops at activation; no action test
     cm = mock_cm()
     c = Client(cm)
     assert c.send([0.03]).accepted
@@ -106,6 +107,7 @@ def test_goal_reached_at_max_velocity():
 
 
 def test_goal_velocity_overrides_max_velocity():
+    # no upstream counterpart: test_parallel_gripper_controller.cpp stops at activation; no action test
     cm = mock_cm()
     c = Client(cm)
     c.send([0.03], velocity=[0.05])
@@ -114,6 +116,7 @@ def test_goal_velocity_overrides_max_velocity():
 
 
 def test_blocked_gripper_stalls_and_aborts():
+    # no upstream counterpart: stall handling (check_for_success in parallel_gripper_action_controller_impl.hpp) is not unit-tested upstream
     cm = mock_cm(hw_params={"disable_commands": "true"}, params={"stall_timeout": "0.5"})
     c = Client(cm)
     c.send([0.03])
@@ -124,6 +127,7 @@ def test_blocked_gripper_stalls_and_aborts():
 
 
 def test_blocked_gripper_with_allow_stalling_succeeds_stalled():
+    # no upstream counterpart: stall handling (check_for_success in parallel_gripper_action_controller_impl.hpp) is not unit-tested upstream
     cm = mock_cm(hw_params={"disable_commands": "true"}, params={"stall_timeout": "0.5", "allow_stalling": "true"})
     c = Client(cm)
     c.send([0.03])
@@ -132,6 +136,7 @@ def test_blocked_gripper_with_allow_stalling_succeeds_stalled():
 
 
 def test_goal_beyond_the_joint_limits_is_rejected():
+    # no upstream counterpart: a robocourse check (upstream accepts the goal and leaves limits to the hardware)
     cm = mock_cm()
     c = Client(cm)
     assert not c.send([4.0]).accepted
@@ -145,6 +150,7 @@ def test_goal_beyond_the_joint_limits_is_rejected():
     ([0.01], ("joint2",), "Goal names joints ['joint2']; this gripper controls only 'joint1'"),
 ])
 def test_malformed_goals_are_rejected(position, name, why):
+    # no upstream counterpart: upstream's goal_callback rejects a wrong number of positions, but no test sends one
     cm = mock_cm()
     c = Client(cm)
     assert not c.send(position, name=name).accepted
@@ -152,12 +158,14 @@ def test_malformed_goals_are_rejected(position, name, why):
 
 
 def test_goal_rejected_while_inactive():
+    # no upstream counterpart: test_parallel_gripper_controller.cpp sends no goals
     cm = mock_cm(activate=False)
     assert not Client(cm).send([0.01]).accepted
     assert grip(cm).rejections == ["Can't accept new action goals. Controller is not running."]
 
 
 def test_new_goal_preempts_and_cancel_holds():
+    # no upstream counterpart: test_parallel_gripper_controller.cpp sends no goals
     cm = mock_cm()
     c1 = Client(cm)
     c1.send([0.03])
@@ -176,6 +184,7 @@ def test_new_goal_preempts_and_cancel_holds():
 
 
 def test_deactivation_aborts_the_goal():
+    # no upstream counterpart: test_parallel_gripper_controller.cpp sends no goals
     cm = mock_cm()
     c = Client(cm)
     c.send([0.03])
@@ -186,7 +195,32 @@ def test_deactivation_aborts_the_goal():
     assert c.outcome()[0] == GoalStatus.STATUS_ABORTED
 
 
+def test_max_effort_interface_gets_the_goal_effort_or_the_default():
+    # no upstream counterpart: test_parallel_gripper_controller.cpp sends no goals; the rule is
+    # parallel_gripper_action_controller_impl.hpp's: accepted_callback writes the goal's effort when
+    # max_effort_interface is set and the goal has one (as given, not clamped to max_effort), otherwise
+    # max_effort; set_hold_position() (on cancel) restores max_effort
+    cm = mock_cm(params={"max_effort": "10.0", "max_effort_interface": "max_effort"},
+                 commands=("position", "max_effort"))
+    assert [loan.name for loan in grip(cm).command_interfaces] == ["joint1/position", "joint1/max_effort"]
+    cm.step(1)
+    hw = cm.rm.components["GenericSystem2dof"].impl
+    assert hw.get_command("joint1/max_effort") == 10.0           # the default before any goal
+    c = Client(cm)
+    c.send([0.03], effort=[4.0])
+    assert hw.get_command("joint1/max_effort") == 4.0
+    c.send([0.03], effort=[25.0])
+    assert hw.get_command("joint1/max_effort") == 25.0           # above max_effort: passed on as upstream does
+    c.handle.cancel_goal_async()
+    cm.step(2)
+    assert c.outcome()[0] == GoalStatus.STATUS_CANCELED
+    assert hw.get_command("joint1/max_effort") == 10.0           # hold: back to the default
+    c.send([0.01])
+    assert hw.get_command("joint1/max_effort") == 10.0           # a goal without effort: the default
+
+
 def test_ur5e_gripper_in_mujoco_opens_and_closes():
+    # no upstream counterpart: runs the controller on the MuJoCo arm
     text = (f"controller_manager:\n  ros__parameters:\n    update_rate: 250\n    grip:\n      type: {GRIP}\n"
             "grip:\n  ros__parameters:\n    joint: finger_joint\n    goal_tolerance: 0.002\n")
     cm = ControllerManager(urdf_text("ur5e", plugin="robocourse/MujocoSystem"), params=text,

@@ -98,7 +98,7 @@ def _sample(tr, t):
 
 
 def test_sample_trajectory_positions_linear_from_the_state_before_and_hold_after():
-    # mirrors test_trajectory.cpp: TEST(TestTrajectory, sample_trajectory_positions)
+    # mirrors joint_trajectory_controller/test/test_trajectory.cpp: TEST(TestTrajectory, sample_trajectory_positions)
     tr = Trajectory([1.0, 2.0, 3.0], [[1.0], [2.0], [3.0]], start_time=0.0)
     start = Sample(1)
     t0 = 10.0
@@ -113,7 +113,7 @@ def test_sample_trajectory_positions_linear_from_the_state_before_and_hold_after
 
 
 def test_interpolation_pos_vel_is_the_cubic_x3_minus_2x():
-    # mirrors test_trajectory.cpp: TEST(TestTrajectory, interpolation_pos_vel)
+    # mirrors joint_trajectory_controller/test/test_trajectory.cpp: TEST(TestTrajectory, interpolation_pos_vel)
     tr = Trajectory([1.0, 3.0], [[0.0], [4.0]], velocities=[[-2.0], [10.0]], start_time=5.0)
     tr.set_point_before_trajectory(5.0, Sample(1))
     for t, p, v, a in ((1.0, 0.0, -2.0, 0.0), (1.0 + math.sqrt(2), 0.0, 4.0, 6 * math.sqrt(2)), (2.999999999, 4.0, 10.0, 12.0)):
@@ -122,7 +122,7 @@ def test_interpolation_pos_vel_is_the_cubic_x3_minus_2x():
 
 
 def test_interpolation_pos_vel_accel_is_the_quintic():
-    # mirrors test_trajectory.cpp: TEST(TestTrajectory, interpolation_pos_vel_accel); x(x-1)(x-2)(x-3)(x-4), x = t - 1
+    # mirrors joint_trajectory_controller/test/test_trajectory.cpp: TEST(TestTrajectory, interpolation_pos_vel_accel); x(x-1)(x-2)(x-3)(x-4), x = t - 1
     tr = Trajectory([1.0, 3.0], [[0.0], [0.0]], velocities=[[24.0], [4.0]], accelerations=[[-100.0], [0.0]],
                     start_time=5.0)
     tr.set_point_before_trajectory(5.0, Sample(1))
@@ -133,7 +133,7 @@ def test_interpolation_pos_vel_accel_is_the_quintic():
 
 
 def test_skip_interpolation_returns_the_next_point():
-    # mirrors test_trajectory.cpp: TEST(TestTrajectory, skip_interpolation)
+    # mirrors joint_trajectory_controller/test/test_trajectory.cpp: TEST(TestTrajectory, skip_interpolation)
     tr = Trajectory([1.0, 2.0, 3.0], [[1.0], [2.0], [3.0]])
     tr.set_point_before_trajectory(10.0, Sample(1))
     got = []
@@ -152,7 +152,7 @@ def test_skip_interpolation_returns_the_next_point():
     (("position",), ("velocity", "acceleration")), (("position",), ("position", "acceleration")),
 ])
 def test_incorrect_interface_combinations_fail_init(commands, states):
-    # mirrors test_trajectory_controller.cpp: TEST_F(TrajectoryControllerTest, incorrect_initialization_using_interface_parameters)
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_F(TrajectoryControllerTest, incorrect_initialization_using_interface_parameters)
     with pytest.raises(RuntimeError):
         make_cm(commands=commands, states=states, hw_commands=("position", "velocity", "acceleration", "effort"),
                 activate=False)
@@ -160,7 +160,8 @@ def test_incorrect_interface_combinations_fail_init(commands, states):
 
 @pytest.mark.parametrize("commands", [("velocity",), ("effort",), ("position", "effort")])
 def test_velocity_or_effort_commands_without_velocity_state_fail_configure(commands):
-    # mirrors the same upstream test's "init OK, configure fails" cases
+    # mirrors the 'init OK, configure fails' cases of joint_trajectory_controller/test/test_trajectory_controller.cpp:
+    # TEST_F(TrajectoryControllerTest, incorrect_initialization_using_interface_parameters)
     with pytest.raises(RuntimeError):
         make_cm(commands=commands, states=("position",), hw_commands=("position", "velocity", "effort"),
                 activate=False)
@@ -173,6 +174,7 @@ def test_velocity_or_effort_commands_without_velocity_state_fail_configure(comma
     ({"constraints.goal_time": "-1.0"}, "must be greater than or equal to '0'"),
 ])
 def test_parameters_outside_the_schema_are_refused_with_the_validator_text(values, message):
+    # no upstream counterpart: the validator texts come from generate_parameter_library, not a JTC test
     with pytest.raises(Exception) as err:
         make_cm(params=values, activate=False)
     assert message in str(err.value) or message in str(err.value.__cause__)
@@ -180,7 +182,8 @@ def test_parameters_outside_the_schema_are_refused_with_the_validator_text(value
 
 # --- activation and the topic ----------------------------------------------------------------------------
 def test_activation_holds_the_current_position():
-    # mirrors test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, activate) / hold on start
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, activate) and
+    # TEST_P(TrajectoryControllerTestParameterized, test_hw_states_has_offset_first_controller_start)
     cm = make_cm()
     cm.step(5)
     assert positions(cm) == pytest.approx(INITIAL, abs=1e-12)
@@ -188,7 +191,8 @@ def test_activation_holds_the_current_position():
 
 
 def test_topic_trajectory_reaches_its_points_at_their_times():
-    # mirrors test_trajectory_controller.cpp: TEST_P(..., state_topic_consistency) and the single-point topic moves
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, correct_initialization_using_parameters)
+    # (a trajectory on ~/joint_trajectory reaches its points)
     cm = make_cm()
     cm.step(1)
     publish(cm, traj([(0.25, (2.0, 3.0, 4.0)), (0.5, (1.0, 1.0, 1.0))]))
@@ -201,7 +205,7 @@ def test_topic_trajectory_reaches_its_points_at_their_times():
 
 
 def test_jumbled_joint_order_is_mapped_to_the_controllers_order():
-    # mirrors test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, test_jumbled_joint_order)
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, test_jumbled_joint_order)
     cm = make_cm()
     cm.step(1)
     publish(cm, traj([(0.1, (3.3, 1.1, 2.2))], names=("joint3", "joint1", "joint2")))
@@ -210,7 +214,7 @@ def test_jumbled_joint_order_is_mapped_to_the_controllers_order():
 
 
 def test_partial_joint_list_holds_the_missing_joints():
-    # mirrors test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, test_partial_joint_list)
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, test_partial_joint_list)
     cm = make_cm(params={"allow_partial_joints_goal": "true"})
     cm.step(1)
     publish(cm, traj([(0.1, (5.0, 6.0))], names=("joint2", "joint1")))
@@ -219,7 +223,7 @@ def test_partial_joint_list_holds_the_missing_joints():
 
 
 def test_partial_joint_list_not_allowed_is_dropped():
-    # mirrors test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, test_partial_joint_list_not_allowed)
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, test_partial_joint_list_not_allowed)
     cm = make_cm()
     cm.step(1)
     publish(cm, traj([(0.1, (5.0, 6.0))], names=("joint2", "joint1")))
@@ -266,8 +270,7 @@ BAD = {
 
 @pytest.mark.parametrize("kind", sorted(BAD))
 def test_invalid_trajectory_messages_are_dropped_with_upstreams_reason(kind):
-    # mirrors test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, invalid_message)
-    # and test_ignore_old_trajectory (ending in the past)
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, invalid_message)
     cm = make_cm()
     cm.step(30)
     publish(cm, _bad(kind))
@@ -277,7 +280,7 @@ def test_invalid_trajectory_messages_are_dropped_with_upstreams_reason(kind):
 
 
 def test_trajectory_replace_starts_from_the_current_state():
-    # mirrors test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, test_trajectory_replace)
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, test_trajectory_replace)
     cm = make_cm()
     cm.step(1)
     publish(cm, traj([(1.0, (3.0, 3.0, 3.0))]))
@@ -292,7 +295,7 @@ def test_trajectory_replace_starts_from_the_current_state():
 
 
 def test_state_tolerance_violation_holds_position_in_topic_mode():
-    # mirrors test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, test_state_tolerances_fail)
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, test_state_tolerances_fail)
     cm = make_cm(params={"constraints.joint1.trajectory": "0.05"}, hw_params={"position_state_following_offset": "0.1"})
     cm.step(2)
     publish(cm, traj([(1.0, (3.0, 3.0, 3.0))]))
@@ -305,7 +308,7 @@ def test_state_tolerance_violation_holds_position_in_topic_mode():
 
 
 def test_goal_time_exceeded_holds_position_in_topic_mode():
-    # mirrors test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, test_goal_tolerances_fail)
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, test_goal_tolerances_fail)
     cm = make_cm(params={"constraints.joint1.goal": "0.05", "constraints.goal_time": "0.1"},
                  hw_params={"position_state_following_offset": "0.1"})
     cm.step(2)
@@ -315,7 +318,7 @@ def test_goal_time_exceeded_holds_position_in_topic_mode():
 
 
 def test_cmd_timeout_holds_position_after_the_last_point():
-    # mirrors the cmd_timeout behaviour of test_trajectory_controller.cpp (upstream test name not verified here)
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, timeout) (cmd_timeout 0.1 s: hold the last point)
     cm = make_cm(params={"cmd_timeout": "0.3"})
     cm.step(1)
     publish(cm, traj([(0.1, (2.0, 2.0, 2.0))]))
@@ -327,7 +330,7 @@ def test_cmd_timeout_holds_position_after_the_last_point():
 
 
 def test_update_dynamic_tolerances_are_picked_up_by_the_next_update():
-    # mirrors test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, update_dynamic_tolerances)
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, update_dynamic_tolerances)
     cm = make_cm()
     c = jtc(cm)
     d = c.default_tolerances
@@ -345,7 +348,7 @@ def test_update_dynamic_tolerances_are_picked_up_by_the_next_update():
 
 
 def test_velocity_only_uses_the_pid_with_feed_forward():
-    # mirrors test_trajectory_controller.cpp: TEST_P(..., use_closed_loop_pid) and the velocity-command cases
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, use_closed_loop_pid) (OnlyVelocityTrajectoryControllers)
     cm = make_cm(params={"gains.joint1.p": "2.0", "gains.joint2.p": "2.0", "gains.joint3.p": "2.0",
                          "gains.joint1.ff_velocity_scale": "1.0"},
                  commands=("velocity",), hw_params={"calculate_dynamics": "true"},
@@ -364,7 +367,8 @@ def test_velocity_only_uses_the_pid_with_feed_forward():
 
 
 def test_position_effort_writes_the_interpolated_effort():
-    # mirrors the position+effort command case of test_trajectory_controller.cpp (parameterized interfaces)
+    # no upstream counterpart: joint_trajectory_controller/test/test_trajectory_controller.cpp's parameterized suites instantiate position, position+velocity,
+    # position+velocity+acceleration, velocity and effort, not position+effort
     cm = make_cm(commands=("position", "effort"), hw_commands=("position", "effort"))
     cm.step(1)
     msg = traj([(0.5, (1.1, 2.1, 3.1))])
@@ -375,7 +379,7 @@ def test_position_effort_writes_the_interpolated_effort():
 
 
 def test_controller_state_topic_reports_reference_feedback_error_output():
-    # mirrors test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, state_topic_consistency)
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, state_topic_consistency)
     cm = make_cm()
     got = []
     node = cm.context.create_node("state_listener")
@@ -413,7 +417,7 @@ class Client:
 
 
 def test_success_single_point_sendgoal():
-    # mirrors test_trajectory_actions.cpp: TEST_F(TestTrajectoryActions, test_success_single_point_sendgoal)
+    # mirrors joint_trajectory_controller/test/test_trajectory_actions.cpp: TEST_P(TestTrajectoryActionsTestParameterized, test_success_single_point_sendgoal)
     cm = make_cm()
     c = Client(cm)
     h = c.send(traj([(0.5, (1.0, 2.0, 3.0))]))
@@ -426,7 +430,7 @@ def test_success_single_point_sendgoal():
 
 
 def test_success_multi_point_sendgoal_with_feedback():
-    # mirrors test_trajectory_actions.cpp: TEST_F(TestTrajectoryActions, test_success_multi_point_sendgoal)
+    # mirrors joint_trajectory_controller/test/test_trajectory_actions.cpp: TEST_P(TestTrajectoryActionsTestParameterized, test_success_multi_point_sendgoal)
     cm = make_cm()
     c = Client(cm)
     c.send(traj([(0.2, (1.0, 2.0, 3.0)), (0.4, (2.0, 3.0, 4.0))]))
@@ -438,7 +442,7 @@ def test_success_multi_point_sendgoal_with_feedback():
 
 
 def test_goal_rejected_while_the_controller_is_inactive():
-    # mirrors test_trajectory_actions.cpp: rejection of goals when the controller is not active
+    # no upstream counterpart: joint_trajectory_controller/test/test_trajectory_actions.cpp sends goals only to an active controller
     cm = make_cm(activate=False)
     c = Client(cm)
     h = c.send(traj([(0.5, (1.0, 2.0, 3.0))]))
@@ -447,7 +451,7 @@ def test_goal_rejected_while_the_controller_is_inactive():
 
 
 def test_allow_nonzero_velocity_at_trajectory_end_false_rejects_the_goal():
-    # mirrors test_trajectory_actions.cpp: TEST_F(TestTrajectoryActions, test_allow_nonzero_velocity_at_trajectory_end_false)
+    # mirrors joint_trajectory_controller/test/test_trajectory_actions.cpp: TEST_P(TestTrajectoryActionsTestParameterized, test_allow_nonzero_velocity_at_trajectory_end_false)
     cm = make_cm()
     h = Client(cm).send(traj([(0.5, (1.0, 2.0, 3.0), (0.0, 0.0, 1.0))]))
     assert not h.accepted
@@ -455,7 +459,7 @@ def test_allow_nonzero_velocity_at_trajectory_end_false_rejects_the_goal():
 
 
 def test_allow_nonzero_velocity_at_trajectory_end_true_accepts_and_succeeds():
-    # mirrors test_trajectory_actions.cpp: TEST_F(TestTrajectoryActions, test_allow_nonzero_velocity_at_trajectory_end_true)
+    # mirrors joint_trajectory_controller/test/test_trajectory_actions.cpp: TEST_P(TestTrajectoryActionsTestParameterized, test_allow_nonzero_velocity_at_trajectory_end_true)
     cm = make_cm(params={"allow_nonzero_velocity_at_trajectory_end": "true", "constraints.stopped_velocity_tolerance": "0.0"})
     c = Client(cm)
     assert c.send(traj([(0.5, (1.0, 2.0, 3.0), (0.0, 0.0, 1.0))])).accepted
@@ -464,7 +468,7 @@ def test_allow_nonzero_velocity_at_trajectory_end_true_accepts_and_succeeds():
 
 
 def test_state_tolerances_fail_aborts_with_path_tolerance_violated():
-    # mirrors test_trajectory_actions.cpp: TEST_F(TestTrajectoryActions, test_state_tolerances_fail)
+    # mirrors joint_trajectory_controller/test/test_trajectory_actions.cpp: TEST_P(TestTrajectoryActionsTestParameterized, test_state_tolerances_fail)
     cm = make_cm(hw_params={"position_state_following_offset": "0.1"})
     c = Client(cm)
     c.send(traj([(1.0, (3.0, 3.0, 3.0))]), path=[JointTolerance(name="joint1", position=0.05)])
@@ -475,7 +479,7 @@ def test_state_tolerances_fail_aborts_with_path_tolerance_violated():
 
 
 def test_goal_tolerances_fail_aborts_with_goal_tolerance_violated():
-    # mirrors test_trajectory_actions.cpp: TEST_F(TestTrajectoryActions, test_goal_tolerances_fail)
+    # mirrors joint_trajectory_controller/test/test_trajectory_actions.cpp: TEST_P(TestTrajectoryActionsTestParameterized, test_goal_tolerances_fail)
     cm = make_cm(hw_params={"position_state_following_offset": "0.1"})
     c = Client(cm)
     c.send(traj([(0.2, (3.0, 3.0, 3.0))]), goal=[JointTolerance(name="joint2", position=0.05)], goal_time=0.1)
@@ -486,7 +490,7 @@ def test_goal_tolerances_fail_aborts_with_goal_tolerance_violated():
 
 
 def test_goal_tolerances_single_point_success():
-    # mirrors test_trajectory_actions.cpp: TEST_F(TestTrajectoryActions, test_goal_tolerances_single_point_success)
+    # mirrors joint_trajectory_controller/test/test_trajectory_actions.cpp: TEST_F(TestTrajectoryActions, test_goal_tolerances_single_point_success)
     cm = make_cm(hw_params={"position_state_following_offset": "0.01"})
     c = Client(cm)
     c.send(traj([(0.2, (3.0, 3.0, 3.0))]), goal=[JointTolerance(name=j, position=0.05) for j in JOINTS],
@@ -496,7 +500,7 @@ def test_goal_tolerances_single_point_success():
 
 
 def test_cancel_hold_position():
-    # mirrors test_trajectory_actions.cpp: TEST_F(TestTrajectoryActions, test_cancel_hold_position)
+    # mirrors joint_trajectory_controller/test/test_trajectory_actions.cpp: TEST_P(TestTrajectoryActionsTestParameterized, test_cancel_hold_position)
     cm = make_cm()
     c = Client(cm)
     h = c.send(traj([(1.0, (3.0, 3.0, 3.0))]))
@@ -511,7 +515,7 @@ def test_cancel_hold_position():
 
 
 def test_preempted_goal_is_aborted_with_upstreams_text():
-    # mirrors test_trajectory_actions.cpp: preemption of an active goal by a new one (jazzy+ semantics)
+    # no upstream counterpart: joint_trajectory_controller/test/test_trajectory_actions.cpp has no preemption case; the text is preempt_active_goal()'s (jazzy+)
     cm = make_cm()
     c1, c2 = Client(cm), None
     c1.send(traj([(1.0, (3.0, 3.0, 3.0))]))
@@ -527,7 +531,7 @@ def test_preempted_goal_is_aborted_with_upstreams_text():
 
 
 def test_deactivate_controller_aborts_action():
-    # mirrors upstream's deactivate-with-active-goal behaviour (on_deactivate aborts the goal)
+    # no upstream counterpart: joint_trajectory_controller/test/test_trajectory_actions.cpp has no deactivation case; on_deactivate() aborts the goal upstream
     cm = make_cm()
     c = Client(cm)
     c.send(traj([(1.0, (3.0, 3.0, 3.0))]))
@@ -540,7 +544,8 @@ def test_deactivate_controller_aborts_action():
 
 
 def test_reactivation_holds_the_last_command_not_a_jump():
-    # mirrors test_trajectory_controller.cpp: TEST_P(..., test_no_jump_when_state_tracking_error_updated) (activation side)
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, test_hw_states_has_offset_later_controller_start)
+    # (set_last_command_interface_value_as_state_on_activation)
     cm = make_cm()
     cm.step(1)
     publish(cm, traj([(0.2, (2.0, 2.0, 2.0))]))
@@ -554,7 +559,8 @@ def test_reactivation_holds_the_last_command_not_a_jump():
 
 
 def test_position_velocity_acceleration_commands_follow_the_quintic():
-    # mirrors the position+velocity+acceleration case of test_trajectory_controller.cpp's parameterized interfaces
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp's PositionVelocityAccelerationTrajectoryControllers instantiation of
+    # TEST_P(TrajectoryControllerTestParameterized, test_jumbled_joint_order) (commands follow the spline)
     cm = make_cm(commands=("position", "velocity", "acceleration"), hw_commands=("position", "velocity", "acceleration"))
     cm.step(1)
     # from rest at INITIAL to INITIAL + 1 in 1 s, rest to rest: the quintic 10s^3 - 15s^4 + 6s^5
@@ -566,7 +572,7 @@ def test_position_velocity_acceleration_commands_follow_the_quintic():
 
 
 def test_effort_only_closes_the_loop_with_the_pid():
-    # mirrors test_trajectory_controller.cpp: TEST_P(..., use_closed_loop_pid) for the effort interface
+    # mirrors joint_trajectory_controller/test/test_trajectory_controller.cpp: TEST_P(TrajectoryControllerTestParameterized, use_closed_loop_pid) (OnlyEffortTrajectoryControllers)
     cm = make_cm(params={f"gains.{j}.p": "10.0" for j in JOINTS}, commands=("effort",), hw_commands=("effort",))
     c = jtc(cm)
     assert c.use_closed_loop_pid

@@ -49,7 +49,8 @@ def set_reference(cm, values, values_dot=()):
 
 
 def test_all_parameters_set_configure_success_and_check_exported_interfaces():
-    # mirrors test_pid_controller.cpp: all_parameters_set_configure_success / check_exported_interfaces
+    # mirrors pid_controller/test/test_pid_controller.cpp: TEST_F(PidControllerTest, all_parameters_set_configure_success) and
+    # TEST_F(PidControllerTest, check_exported_interfaces)
     cm = cm_for({"pid": pid_params(p="1.0")})
     c = cm.controllers["pid"].c
     assert c.command_interface_configuration().names == ["joint1/velocity"]
@@ -64,6 +65,7 @@ def test_all_parameters_set_configure_success_and_check_exported_interfaces():
     ("gains.joint1.i_clamp", "-1.0", "must be greater than or equal to '0'"),
 ])
 def test_invalid_parameters_are_refused(key, value, message):
+    # no upstream counterpart: pid_controller/test/test_pid_controller.cpp has no invalid-parameter case (the validators come from the parameter schema)
     p = pid_params()
     p[key] = value
     with pytest.raises(RuntimeError):
@@ -71,7 +73,8 @@ def test_invalid_parameters_are_refused(key, value, message):
 
 
 def test_update_logic_feedforward_off():
-    # mirrors test_pid_controller.cpp: test_update_logic_feedforward_off
+    # mirrors pid_controller/test/test_pid_controller.cpp: TEST_F(PidControllerTest, test_update_logic_feedforward_off) (older versions;
+    # the newest file has test_update_logic_zero_feedforward_gain)
     cm = cm_for({"pid": pid_params(p="1.0")})
     cm.switch_controller(["pid"], [], STRICT)
     set_reference(cm, [5.0])
@@ -80,7 +83,8 @@ def test_update_logic_feedforward_off():
 
 
 def test_update_logic_feedforward_on():
-    # mirrors test_pid_controller.cpp: test_update_logic_feedforward_on
+    # mirrors pid_controller/test/test_pid_controller.cpp: TEST_F(PidControllerTest, test_update_logic_feedforward_on) (older versions;
+    # the newest file has test_update_chained_non_zero_feedforward_gain)
     cm = cm_for({"pid": pid_params(p="1.0", feedforward_gain="1.0")})
     cm.switch_controller(["pid"], [], STRICT)
     set_reference(cm, [5.0])
@@ -90,7 +94,8 @@ def test_update_logic_feedforward_on():
 
 @pytest.mark.parametrize("wrap, expected", [("false", 6.0), ("true", 6.0 - 2 * math.pi)])
 def test_update_logic_angle_wraparound(wrap, expected):
-    # mirrors test_pid_controller.cpp: test_update_logic_angle_wraparound_off / _on
+    # mirrors pid_controller/test/test_pid_controller.cpp: TEST_F(PidControllerTest, test_update_logic_angle_wraparound_off) and
+    # TEST_F(PidControllerTest, test_update_logic_angle_wraparound_on)
     cm = cm_for({"pid": pid_params(p="1.0", angle_wraparound=wrap)}, initial=-3.0)
     cm.switch_controller(["pid"], [], STRICT)
     set_reference(cm, [3.0])
@@ -99,6 +104,7 @@ def test_update_logic_angle_wraparound(wrap, expected):
 
 
 def test_integral_and_derivative_terms():
+    # no upstream counterpart: pid_controller/test/test_pid_controller.cpp checks a first update only (integral term zero)
     cm = cm_for({"pid": pid_params(i="2.0", d="0.5")})
     cm.switch_controller(["pid"], [], STRICT)
     set_reference(cm, [5.0])
@@ -110,6 +116,7 @@ def test_integral_and_derivative_terms():
 
 
 def test_velocity_reference_drives_the_derivative_term():
+    # no upstream counterpart: not found in pid_controller/test/test_pid_controller.cpp
     p = pid_params(d="2.0")
     p["reference_and_state_interfaces"] = "[position, velocity]"
     cm = cm_for({"pid": p})
@@ -120,6 +127,7 @@ def test_velocity_reference_drives_the_derivative_term():
 
 
 def test_nan_reference_writes_no_command():
+    # no upstream counterpart: not found in pid_controller/test/test_pid_controller.cpp
     cm = cm_for({"pid": pid_params(p="1.0")})
     cm.switch_controller(["pid"], [], STRICT)
     cm.step(3)
@@ -127,7 +135,7 @@ def test_nan_reference_writes_no_command():
 
 
 def test_receive_message_and_publish_updated_status():
-    # mirrors test_pid_controller.cpp: receive_message_and_publish_updated_status
+    # mirrors pid_controller/test/test_pid_controller.cpp: TEST_F(PidControllerTest, receive_message_and_publish_updated_status)
     cm = cm_for({"pid": pid_params(p="2.0")})
     got = []
     node = cm.context.create_node("probe")
@@ -158,7 +166,8 @@ def cascade():
 
 
 def test_pid_chain_activation_order_and_tracking():
-    # mirrors ros2_control's chaining tests (test_controllers_chaining_with_controller_manager.cpp) with real PIDs
+    # mirrors ros2_control controller_manager/test/test_controllers_chaining_with_controller_manager.cpp:
+    # TEST_P(TestControllerChainingWithControllerManager, test_chained_controllers), with real PIDs
     cm = cascade()
     assert cm.ordered_controllers() == ["pos_pid", "vel_pid"]
     assert cm.switch_controller(["pos_pid"], [], STRICT) == return_type.ERROR
@@ -174,7 +183,7 @@ def test_pid_chain_activation_order_and_tracking():
 
 
 def test_chained_mode_ignores_the_subscriber():
-    # mirrors test_pid_controller.cpp: test_update_logic_chainable_not_use_subscriber_update
+    # mirrors pid_controller/test/test_pid_controller.cpp: TEST_F(PidControllerTest, test_update_logic_chainable_not_use_subscriber_update)
     cm = cascade()
     cm.switch_controller(["vel_pid", "pos_pid"], [], STRICT)
     cm.controllers["vel_pid"].c._on_reference(MultiDOFCommand(values=[100.0]))

@@ -77,6 +77,8 @@ def _builtins() -> None:
     hw = "robocourse.control.hardware."
     register("mock_components/GenericSystem", hw + "mock_components:GenericSystem", HARDWARE_BASE)
     register("robocourse/MujocoSystem", hw + "mujoco_system:MujocoSystem", HARDWARE_BASE)
+    register("robocourse/RRBotModularJoint", hw + "modular:RRBotModularJoint", HARDWARE_BASE)
+    register("robocourse/ForceTorqueSensor", hw + "modular:ForceTorqueSensor", HARDWARE_BASE)
     c = "robocourse.control.controllers."
     fcc = c + "forward_command_controller:"
     register("forward_command_controller/ForwardCommandController", fcc + "ForwardCommandController", CONTROLLER_BASE)

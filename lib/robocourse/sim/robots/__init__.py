@@ -22,8 +22,10 @@ states, and on the ur5e a ``tcp_fts_sensor`` with force.x..torque.z states).
 API (stable; other packages build on it):
 
 - ``urdf_path(name) -> Path``; ``urdf_text(name, plugin=None, params=None,
-  initial_positions=None) -> str``: the URDF with the hardware plugin/params substituted, like a
-  xacro argument; ``joint_limits(name) -> {joint: JointLimits}``.
+  initial_positions=None, variant=None) -> str``: the URDF with the hardware plugin/params
+  substituted, like a xacro argument, or with a variant's ``<ros2_control>`` elements
+  (``VARIANTS``: RRBot's ``"modular_fts"``, an actuator per joint and an external F/T sensor);
+  ``joint_limits(name) -> {joint: JointLimits}``.
 - ``RobotSim(name, timestep=0.001, gains=None, gravity_feedforward=True, wall=None,
   grasp_object=None, payload_mass=0.0, floor=True)``:
   ``joint_names`` (commanded joints, URDF order); ``positions``/``velocities``/``efforts``
@@ -50,9 +52,9 @@ ros2_control component in robocourse.control wraps RobotSim); the servo gains li
 (``ServoGains``), not in the MJCF; position and velocity servos add a gravity feed-forward.
 """
 
-from .description import ROBOTS, JointLimits, joint_limits, urdf_path, urdf_text
+from .description import ROBOTS, VARIANTS, JointLimits, joint_limits, urdf_path, urdf_text
 from .kinematics import Kinematics
 from .simulation import MODES, GraspObject, RobotSim, ServoGains, Wall
 
-__all__ = ["ROBOTS", "MODES", "JointLimits", "joint_limits", "urdf_path", "urdf_text", "Kinematics", "RobotSim",
+__all__ = ["ROBOTS", "VARIANTS", "MODES", "JointLimits", "joint_limits", "urdf_path", "urdf_text", "Kinematics", "RobotSim",
            "ServoGains", "Wall", "GraspObject"]

@@ -20,6 +20,11 @@ from pathlib import Path
 ROBOTS = ("rrbot", "ur5e")
 """Names accepted by ``urdf_path``, ``urdf_text``, ``joint_limits`` and ``RobotSim``."""
 
+VARIANTS = {"rrbot": ("modular_fts",), "ur5e": ()}
+"""Other ``<ros2_control>`` wirings of the same robot, for ``urdf_text(name, variant=...)``:
+``"modular_fts"`` is RRBot as one actuator per joint plus an external force/torque sensor
+(ros2_control_demos' examples 6 and 5), from ``rrbot_modular_fts.ros2_control.xml``."""
+
 _PLUGIN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*((/|::)[A-Za-z_][A-Za-z0-9_]*)+")
 _PARAM_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*")
 _ROS2_CONTROL = re.compile(r"<ros2_control\s[^>]*>.*?</ros2_control>", re.S)
@@ -94,8 +99,12 @@ def _param_text(key, value) -> str:
 
 
 def urdf_text(name: str, plugin: str | None = None, params: Mapping[str, object] | None = None,
-              initial_positions: Mapping[str, float] | None = None) -> str:
+              initial_positions: Mapping[str, float] | None = None, variant: str | None = None) -> str:
     """The URDF of robot ``name`` with a chosen hardware plugin, params and initial positions.
+
+    ``variant`` (one of ``VARIANTS[name]``) swaps the file's ``<ros2_control>`` element for the
+    variant's elements, as a demo's xacro includes another ``*.ros2_control.xacro``; it cannot be
+    combined with ``plugin``/``params``/``initial_positions`` (each of its components names its own).
 
     ``plugin`` replaces the ``<hardware><plugin>`` text (e.g. ``"robocourse/MujocoSystem"``);
     ``params`` replaces all ``<hardware><param>`` entries (bools become ``true``/``false``);
@@ -104,6 +113,8 @@ def urdf_text(name: str, plugin: str | None = None, params: Mapping[str, object]
     naming the value and the rule before anything is built.
     """
     text = urdf_path(name).read_text()
+    if variant is not None:
+        return _variant_text(name, text, variant, plugin, params, initial_positions)
     if plugin is None and params is None and initial_positions is None:
         return text
     if plugin is not None and (not isinstance(plugin, str) or not _PLUGIN.fullmatch(plugin)):
@@ -130,6 +141,19 @@ def urdf_text(name: str, plugin: str | None = None, params: Mapping[str, object]
         _set_initial_positions(name, element, initial_positions)
     ET.indent(element, space="  ", level=1)
     return text[:start] + ET.tostring(element, encoding="unicode") + text[end:]
+
+
+def _variant_text(name: str, text: str, variant, plugin, params, initial_positions) -> str:
+    if variant not in VARIANTS[name]:
+        raise ValueError(f"unknown variant {variant!r} of {name}: its variants are "
+                         f"{list(VARIANTS[name]) or 'none'}; e.g. urdf_text('rrbot', variant='modular_fts')")
+    if plugin is not None or params is not None or initial_positions is not None:
+        raise ValueError(f"variant={variant!r} names its own plugins and params: leave plugin, params and "
+                         "initial_positions unset (or edit the returned text)")
+    source = resources.files(__package__) / f"{name}_{variant}.ros2_control.xml"
+    elements = _ROS2_CONTROL.findall(source.read_text())
+    span = _ROS2_CONTROL.search(text).span()
+    return text[:span[0]] + "\n  ".join(elements) + text[span[1]:]
 
 
 def _set_initial_positions(name: str, element: ET.Element, positions: Mapping[str, float]) -> None:

@@ -6,7 +6,9 @@ with the goal position, and optionally a maximum velocity and effort), the posit
 of one joint, ``goal_tolerance``, stall detection (no movement faster than
 ``stall_velocity_threshold`` for ``stall_timeout`` s: abort, or succeed with ``stalled`` when
 ``allow_stalling``), ``max_effort`` / ``max_velocity`` defaults written to the optional
-``max_effort_interface`` / ``max_velocity_interface``. Feedback and result carry the joint
+``max_effort_interface`` / ``max_velocity_interface`` (a goal's effort / velocity replaces the
+default as given, not clamped to it, as upstream's accepted_callback does; a cancel restores the
+defaults). Feedback and result carry the joint
 state, ``stalled`` and ``reached_goal``. A new goal preempts the active one (aborted: the
 action state machine cancels only goals whose cancel was requested); a cancel holds the
 current position; on activation the gripper holds where it is.
@@ -190,7 +192,9 @@ class ParallelGripperController(ControllerInterface):
     def _goal_cancelled(self, handle):
         goal = self.goals.active
         if goal is not None and goal.handle is handle:
-            self.target = self.command = self.position       # hold the current position
+            # upstream's set_hold_position(): hold here with the default max_effort / max_velocity again
+            self.target = self.command = self.position
+            self.max_velocity, self.max_effort = self.params.max_velocity, self.params.max_effort
             self.goals.finish("canceled", self._result(False, False))
         return CancelResponse.ACCEPT
 
