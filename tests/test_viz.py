@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import base64
 import re
-import shutil
 import socket
-import subprocess
 import urllib.request
 
 import numpy as np
 import pytest
+from scene_shots import needs_chromium, screenshot
 
 from robocourse import viz
 from robocourse.viz import transforms as tf
@@ -132,23 +131,10 @@ def test_headless_scene_starts_no_server():
     assert viz.Scene().live is False and viz.Scene()._server is None
 
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-
-
-@pytest.mark.skipif(CHROMIUM is None, reason="Chromium is not installed (apt-get install chromium; .ci/run installs it)")
+@needs_chromium
 def test_chromium_renders_the_recording(recorded, tmp_path):
-    import matplotlib.image
-
     scene, _ = recorded
-    page = scene.save_html(tmp_path / "scene.html")
-    shot = tmp_path / "shot.png"
-    subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                    "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                    f"--user-data-dir={tmp_path / 'profile'}", "--use-gl=swiftshader", "--enable-unsafe-swiftshader",
-                    "--window-size=640,480", "--virtual-time-budget=2000", f"--screenshot={shot}", page.as_uri()],
-                   capture_output=True, timeout=120, check=True)
-    img = matplotlib.image.imread(shot)[..., :3]
-    assert img.shape[:2] == (480, 640)
+    img = screenshot(scene, tmp_path)
     # meshcat's default background is a blue gradient; our red bob (0.9, 0.2, 0.1) must show up
     red = (img[..., 0] > 0.6) & (img[..., 1] < 0.35) & (img[..., 2] < 0.35)
     assert red.sum() > 20, f"only {red.sum()} bob-coloured pixels: the scene did not render"

@@ -4,11 +4,10 @@ the saved page points nowhere (no server URL); chapter 2's cart-pole seen in Chr
 from __future__ import annotations
 
 import math
-import shutil
-import subprocess
 
 import numpy as np
 import pytest
+from scene_shots import needs_chromium, screen_reach, screenshot
 from test_viz import decode_commands
 
 from robocourse import viz
@@ -32,15 +31,6 @@ def cartpole_scene(seconds=2.0):
             duration=seconds, control_period=0.001, drawer=drawer, draw_every=33)
     scene.stop_recording()
     return scene
-
-
-def screen_reach(scene):
-    """How far (normalised screen units, 1 = edge) the motion reaches, robot size included."""
-    pts, pad = scene.motion_points()
-    ndc, depth = framing.project(pts, *scene.camera)
-    t = math.tan(math.radians(framing.FOV_DEG) / 2)
-    return max(float((np.abs(ndc[:, 0]) + pad / (depth * t * framing.ASPECT)).max()),
-               float((np.abs(ndc[:, 1]) + pad / (depth * t)).max()))
 
 
 def test_cartpole_rail_runs_across_the_view_and_the_motion_fills_it():
@@ -105,6 +95,30 @@ def test_a_deleted_robot_is_not_framed_any_more():
     assert np.allclose(pts, [[3.0, 0.0, 0.5]])
 
 
+def test_a_robot_drawn_again_after_a_delete_drops_its_old_recording():
+    """Chapter 3 records a drive, then the teleop draws a new car at the same path: the old clip
+    must neither be framed nor replayed by the viewer over the new car's poses."""
+    scene = viz.Scene(live=False)
+    scene.box("car/chassis", (0.2, 0.1, 0.05))
+    scene.sphere("ball", 0.05)
+    scene.start_recording(fps=10)
+    for k in range(20):
+        scene.set_time(k / 10)
+        scene.set_pose("car/chassis", (0.1 * k, 0.0, 0.03))
+        scene.set_pose("ball", (0.0, 0.05 * k, 0.5))
+    scene.stop_recording(repetitions=2)
+    scene.delete("car")
+    scene.box("car/chassis", (0.2, 0.1, 0.05))
+    scene.set_pose("car/chassis", (5.0, 0.0, 0.03))
+    pts, _pad = scene.motion_points()
+    assert pts[:, 0].min() >= 0.0 and {round(float(x), 6) for x in pts[:, 0]} == {0.0, 5.0}  # the ball and the new car
+    [anim] = [c for c in decode_commands(scene.html()) if c["type"] == "set_animation"]
+    assert [a["path"] for a in anim["animations"]] == ["/ball"] and anim["options"]["repetitions"] == 2
+    assert scene.frames_recorded() == 20                # the ball's frames remain
+    scene.delete()
+    assert scene.frames_recorded() == 0 and scene.motion_points()[0].shape == (0, 3)
+
+
 def test_saved_pages_hold_no_server_url_and_live_mode_prints_none(capsys):
     page = cartpole_scene(0.5).html()
     assert "127.0.0.1" not in page and "localhost:7" not in page
@@ -115,21 +129,9 @@ def test_saved_pages_hold_no_server_url_and_live_mode_prints_none(capsys):
         scene.close()
 
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-
-
-@pytest.mark.skipif(CHROMIUM is None, reason="Chromium is not installed (apt-get install chromium)")
+@needs_chromium
 def test_chromium_shows_the_cartpole_upright_and_large(tmp_path):
-    import matplotlib.image
-
-    scene = cartpole_scene(3.0)
-    page = scene.save_html(tmp_path / "cartpole.html")
-    shot = tmp_path / "shot.png"
-    subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
-                    f"--user-data-dir={tmp_path / 'profile'}", "--use-gl=swiftshader", "--enable-unsafe-swiftshader",
-                    "--window-size=640,480", "--virtual-time-budget=4000", f"--screenshot={shot}", page.as_uri()],
-                   capture_output=True, timeout=120, check=True)
-    img = matplotlib.image.imread(shot)[..., :3]
+    img = screenshot(cartpole_scene(3.0), tmp_path, budget_ms=4000)
     bob = (img[..., 0] > 0.7) & (img[..., 1] < 0.35) & (img[..., 2] < 0.3)      # (0.9, 0.2, 0.1)
     cart = (img[..., 2] > 0.75) & (img[..., 0] < 0.35) & (img[..., 1] > 0.35) & (img[..., 1] < 0.65)
     assert bob.sum() > 200 and cart.sum() > 2000, (bob.sum(), cart.sum())

@@ -23,6 +23,7 @@ recording as static HTML with the same status lines.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import time
@@ -40,6 +41,11 @@ BUTTONS = {"q": ("curve L", 0.2, 1.0), "w": ("forward", 0.2, 0.0), "e": ("curve 
 
 #: the fallback's scripted drive: (key, seconds held), then a release the watchdog has to catch
 DEMO_SCRIPT = (("w", 1.5), ("q", 2.0), ("e", 1.5))
+
+#: the live view: a square this wide (m) around the car, seen from the -y side 55 deg above the
+#: floor (world x runs left to right on screen)
+LIVE_VIEW_SQUARE = 0.6
+LIVE_VIEW_DIRECTION = (0.0, -math.cos(math.radians(55.0)), math.sin(math.radians(55.0)))
 
 
 def _yaw(q) -> float:
@@ -102,6 +108,7 @@ class LiveTeleop:
         self.executor.add_node(self.node)
         self._scene, self._drawer, self._draw_every = scene, None, max(1, round(1.0 / (draw_hz * self.tick_s)))
         self._framed_at = None
+        self.recording = None                                  # the last drive_recorded(): a view.CarRecording
 
     # -- what the buttons do (any thread) ------------------------------------------------------
     def press(self, key: str, hold_s: float | None = None) -> None:
@@ -209,7 +216,7 @@ class LiveTeleop:
                 self.step()
                 k += 1
                 if k % self._draw_every == 0:
-                    self._draw()
+                    self.draw()
                 if sim:  # simulated time runs as fast as the callbacks: hold it to the wall clock
                     next_t += self.tick_s
                     delay = next_t - time.monotonic()
@@ -273,28 +280,41 @@ class LiveTeleop:
             self._scene = get_scene()
         return self._scene
 
-    def _draw(self) -> None:
+    @contextlib.contextmanager
+    def _live_direction(self):
+        """Frame the live view from :data:`LIVE_VIEW_DIRECTION`; a later recording frames itself."""
+        kept, self.scene.view_direction = self.scene.view_direction, LIVE_VIEW_DIRECTION
+        try:
+            yield
+        finally:
+            self.scene.view_direction = kept
+
+    def draw(self) -> None:
+        """Draw the car in the live view as it is now (the background loop calls this at ``draw_hz``).
+
+        The camera frames a :data:`LIVE_VIEW_SQUARE` m square around the car and re-frames when
+        the car has moved a quarter of it (a camera that follows in steps: each re-frame is one
+        command to the viewer), so the car keeps its size on screen wherever it drives."""
         sim = getattr(self.car, "simulator", None)
         if sim is None:
             return
         if self._drawer is None:
-            from robocourse.viz import MujocoDrawer
+            from .view import fresh_drawer
 
-            self.scene.delete("mycar")
-            self._drawer = MujocoDrawer(self.scene, sim.car.model, prefix="mycar")
+            self._drawer = fresh_drawer(self.scene, self.car)   # an earlier recording is not framed
         self._drawer.update(sim.car.data)
         x, y, _ = sim.car.pose()
-        # live: frame a 0.8 m square around the car, seen from behind-above; re-frame when the car
-        # nears its edge (a camera that follows in steps: each re-frame is one command to the viewer)
-        if self._framed_at is None or math.hypot(x - self._framed_at[0], y - self._framed_at[1]) > 0.25:
+        half = LIVE_VIEW_SQUARE / 2
+        if self._framed_at is None or math.hypot(x - self._framed_at[0], y - self._framed_at[1]) > half / 2:
             self._framed_at = (x, y)
-            for name, dx, dy in (("a", -0.4, -0.4), ("b", 0.4, 0.4), ("c", -0.4, 0.4), ("d", 0.4, -0.4)):
-                self.scene.sphere(f"robocourse_frame/{name}", 0.001, rgba=(1, 1, 1, 0.0))
-                self.scene.set_pose(f"robocourse_frame/{name}", (x + dx, y + dy, 0.0))
+            from .view import FRAME_PATH
+
+            for name, dx, dy in (("a", -half, -half), ("b", half, half), ("c", -half, half), ("d", half, -half)):
+                self.scene.sphere(f"{FRAME_PATH}/{name}", 0.001, rgba=(1, 1, 1, 0.0))
+                self.scene.set_pose(f"{FRAME_PATH}/{name}", (x + dx, y + dy, 0.0))
             if self.scene.camera_auto:
-                kept = self.scene.view_direction
-                self.scene.frame(direction=(0.0, -math.cos(math.radians(55)), math.sin(math.radians(55))))
-                self.scene.view_direction = kept
+                with self._live_direction():
+                    self.scene.frame()
 
     # -- notebook front ends ------------------------------------------------------------------------
     def widget(self, height: int = 380):
@@ -319,8 +339,8 @@ class LiveTeleop:
         hold.observe(lambda ch: setattr(self, "hold_s", float(ch["new"])), names="value")
         quit_b = widgets.Button(description="end teleop", button_style="warning")
         view = widgets.Output()
-        with view:
-            self._draw()
+        with view, self._live_direction():
+            self.draw()
             display(self.scene.show(height=height))
 
         def refresh():
@@ -343,38 +363,22 @@ class LiveTeleop:
         drive and return it as static HTML; the events list says what the watchdog did."""
         if self.running:
             raise RuntimeError("drive_recorded() while the live thread runs: stop() it first")
-        scene = self.scene
-        sim = getattr(self.car, "simulator", None)
-        if sim is None:
-            raise ValueError("drive_recorded() draws the MuJoCo car: launch the car with driver: mujoco")
-        from robocourse.viz import MujocoDrawer
+        from .view import CarRecording
 
-        scene.delete("mycar")
-        scene.delete("mycar_trail")
-        scene.delete("robocourse_frame")
-        drawer = MujocoDrawer(scene, sim.car.model, prefix="mycar")
         fps = 20
-        scene.start_recording(fps=fps)
-        t0 = self._now_ns()
-        trail = []
+        rec = self.recording = CarRecording(self.car, self.scene, fps=fps)
+        rec.sample()
 
         def run(seconds):
             for _ in range(max(1, round(seconds * fps))):
                 self.step(1.0 / fps / self.realtime_factor)
-                scene.set_time((self._now_ns() - t0) * 1e-9)
-                drawer.update(sim.car.data)
-                trail.append((*sim.car.pose()[:2], 0.005))
+                rec.sample()
 
         for key, seconds in script:
             self.press(key, hold_s=seconds + 1.0 / self.rate_hz)   # overlaps the next press, as a held key does
             run(seconds)
         run(self.watchdog_timeout + settle_s)     # released: the watchdog has to stop the car
-        scene.stop_recording()
-        import numpy as np
-
-        if len(trail) >= 2:
-            scene.trace("mycar_trail", np.asarray(trail, dtype=np.float64), rgba=(0.9, 0.2, 0.2, 1.0))
-        return scene.publish_recording(height=height)
+        return rec.finish(height)
 
 
 def live_teleop(car=None, scene=None, script=DEMO_SCRIPT, **kwargs):

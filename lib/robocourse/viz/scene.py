@@ -118,6 +118,7 @@ class Scene:
         self._anim = None
         self._frame = 0
         self._last_animation = None
+        self._animation_options = (True, 1)      # (play, repetitions) of the last stop_recording
         self._radius: dict[str, float] = {}      # node path -> bounding radius of its geometry (m)
         self._where: dict[str, np.ndarray] = {}  # moving node path -> last position outside recordings
         self._fixed: set[str] = set()            # world-fixed nodes: framed only if small (a post, not a floor)
@@ -245,8 +246,28 @@ class Scene:
             self._extra["/" + "/".join(_parts(path))] = pts
 
     def delete(self, path: str = ""):
-        """Remove ``path`` and everything under it (the whole scene for "")."""
+        """Remove ``path`` and everything under it (the whole scene for ""), recorded motion included.
+
+        A robot drawn again at the same path after a delete is a new robot: the old recording's
+        clips for that path are dropped (and the remaining animation re-sent), so neither the
+        camera framing nor the viewer (which would replay the old clip, clamped at its last frame,
+        over the new poses) still sees the old motion."""
+        parts = _parts(path)
         self._send(self._meshcat.commands.Delete(self._path(path)))
+
+        def gone(anim):
+            return [k for k in anim.clips if tuple(k.entries[:len(parts)]) == tuple(parts)]
+
+        if self._anim is not None:
+            for key in gone(self._anim):
+                del self._anim.clips[key]
+        if self._last_animation is not None and not parts:
+            self._last_animation = None              # the whole tree (its animation too) was reset
+        elif self._last_animation is not None and gone(self._last_animation):
+            for key in gone(self._last_animation):
+                del self._last_animation.clips[key]
+            play, repetitions = self._animation_options
+            self._send(self._meshcat.commands.SetAnimation(self._last_animation, play=play, repetitions=repetitions))
 
     # -- poses and recording ----------------------------------------------------------------
     def set_transform(self, path, matrix, _static=False):
@@ -483,6 +504,7 @@ class Scene:
             raise RuntimeError("stop_recording() without start_recording()")
         anim, self._anim = self._anim, None
         self._last_animation = anim
+        self._animation_options = (play, repetitions)
         self._send(self._meshcat.commands.SetAnimation(anim, play=play, repetitions=repetitions))
         return anim
 
