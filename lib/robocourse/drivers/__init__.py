@@ -22,13 +22,15 @@ _pluginlib.register("robocourse/URStyleSystem", "robocourse.drivers.systems:URSt
 
 
 def start_franka_box(port: int = 0, max_missed: int = 20, period_us: int = 1000, initial_positions=None,
-                     realtime: bool = False, physics: bool = True) -> BoxProcess:
+                     realtime: bool = False, physics: bool = True, client_timeout: int = 100) -> BoxProcess:
     """Start a Franka-style box process; ``box.ports["udp"]`` is its port. Stop it with ``box.stop()``.
 
     ``realtime``: the box tries SCHED_FIFO + locked memory (reports nothing if refused: it runs
     on). ``physics=False``: the same packets and timing with no arm behind them (the floor).
+    ``client_timeout``: ticks of silence after which another client may take the slot (a dead
+    client's; see :mod:`robocourse.drivers.franka_box`).
     """
-    args = ["--port", port, "--max-missed", max_missed, "--period-us", period_us]
+    args = ["--port", port, "--max-missed", max_missed, "--period-us", period_us, "--client-timeout", client_timeout]
     if not physics:
         args.append("--no-physics")
     if initial_positions is not None:

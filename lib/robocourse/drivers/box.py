@@ -23,6 +23,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--script-port", type=int, default=0, help="ur: script channel port (0 = free)")
     p.add_argument("--period-us", type=int, default=1000, help="franka: state period in us")
     p.add_argument("--max-missed", type=int, default=20, help="franka: missed ticks in a row before the reflex")
+    p.add_argument("--client-timeout", type=int, default=100,
+                   help="franka: ticks of silence after which another client may take the slot")
     p.add_argument("--keepalive", type=float, default=0.1, help="ur: script keepalive timeout in s")
     p.add_argument("--initial", default="", help="comma-separated initial joint positions (rad)")
     p.add_argument("--no-physics", action="store_true", help="franka: no arm behind the packets (round-trip floor)")
@@ -46,7 +48,8 @@ def main(argv=None) -> int:
             from .franka_box import FrankaBox
 
             box = FrankaBox(port=a.port, host=a.host, period_us=a.period_us, max_missed=a.max_missed,
-                            initial_positions=initial, physics=not a.no_physics)
+                            initial_positions=initial, physics=not a.no_physics,
+                            client_timeout=a.client_timeout)
             ready = f"READY udp={box.port}"
         else:
             from .ur_box import URBox
@@ -57,6 +60,9 @@ def main(argv=None) -> int:
     except OSError as exc:
         print(f"cannot bind {a.kind} box on {a.host} (port {a.port}, script port {a.script_port}): {exc}; "
               "pick another port or pass 0 for a free one", file=sys.stderr)
+        return 2
+    except ValueError as exc:
+        print(f"cannot start the {a.kind} box: {exc}", file=sys.stderr)
         return 2
     def stop(signum, frame):
         box.running = False
