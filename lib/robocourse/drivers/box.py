@@ -14,6 +14,9 @@ import sys
 import threading
 import time
 
+from .franka_protocol import DEFAULT_MAX_MISSED
+from .ur_protocol import KEEPALIVE_S
+
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m robocourse.drivers.box")
@@ -22,10 +25,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--port", type=int, default=0, help="franka: UDP port; ur: RTDE port (0 = free)")
     p.add_argument("--script-port", type=int, default=0, help="ur: script channel port (0 = free)")
     p.add_argument("--period-us", type=int, default=1000, help="franka: state period in us")
-    p.add_argument("--max-missed", type=int, default=20, help="franka: missed ticks in a row before the reflex")
+    p.add_argument("--max-missed", type=int, default=DEFAULT_MAX_MISSED, help="franka: missed ticks in a row before the reflex")
     p.add_argument("--client-timeout", type=int, default=100,
                    help="franka: ticks of silence after which another client may take the slot")
-    p.add_argument("--keepalive", type=float, default=0.1, help="ur: script keepalive timeout in s")
+    p.add_argument("--keepalive", type=float, default=KEEPALIVE_S, help="ur: script keepalive timeout in s")
     p.add_argument("--initial", default="", help="comma-separated initial joint positions (rad)")
     p.add_argument("--no-physics", action="store_true", help="franka: no arm behind the packets (round-trip floor)")
     p.add_argument("--rt", action="store_true", help="try SCHED_FIFO + mlockall for the box")
@@ -69,13 +72,14 @@ def main(argv=None) -> int:
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    print(ready, flush=True)
-    if a.rt:
+    if a.rt:       # settings first (prefaulting the heap takes a while), then READY: a client never waits on them
         from robocourse.rt import settings
 
         with settings.realtime(quiet=True, heap_size=16 * 1024 * 1024):
+            print(ready, flush=True)
             box.run()
     else:
+        print(ready, flush=True)
         box.run()
     return 0
 

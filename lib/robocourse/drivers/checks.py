@@ -31,24 +31,13 @@ def _inputs(rng):
 
 
 def _box_stats(port: int) -> dict:
-    """The box's counters, asked from a socket of our own (the box answers STATS to anyone)."""
-    import json
-    import socket
+    """The box's counters, asked from a socket of our own (the box answers STATS to anyone); {} if silent."""
+    from .franka_client import NetworkException, query_box_stats
 
-    from . import franka_protocol as fp
-
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.settimeout(0.5)
-        for _ in range(4):
-            s.sendto(fp.header(fp.STATS), ("127.0.0.1", port))
-            try:
-                while True:
-                    data = s.recv(65536)
-                    if len(data) >= fp.HEADER.size and fp.HEADER.unpack_from(data)[2] == fp.STATS:
-                        return json.loads(data[fp.HEADER.size:])
-            except TimeoutError:
-                continue
-    return {}
+    try:
+        return query_box_stats(port=port, timeout=2.0)
+    except NetworkException:
+        return {}
 
 
 def _attr(obj, name):

@@ -44,10 +44,13 @@ from .arm import BoxArm, NullArm
 from .ticker import TickingBox
 
 _RING = 1 << 15
+#: round-trip histogram bin edges in us, log-spaced 10 us .. 100 ms (sent with the stats: the
+#: raw ring does not fit in one datagram)
+RTT_HIST_EDGES_US = tuple(float(x) for x in np.geomspace(10.0, 100_000.0, 49))
 
 
 class FrankaBox(TickingBox):
-    def __init__(self, port: int = 0, host: str = "127.0.0.1", period_us: int = 1000, max_missed: int = 20,
+    def __init__(self, port: int = 0, host: str = "127.0.0.1", period_us: int = 1000, max_missed: int = fp.DEFAULT_MAX_MISSED,
                  initial_positions=None, physics: bool = True, client_timeout: int = 100):
         super().__init__()
         if not isinstance(client_timeout, int) or client_timeout < 1:
@@ -255,7 +258,9 @@ class FrankaBox(TickingBox):
         k = min(self.rtt_count, _RING)
         rtt = np.sort(self.rtt_ns[:k]) / 1e3 if k else None
         rtt_us = ({"rtt_n": k, "rtt_p50_us": float(rtt[k // 2]), "rtt_p99_us": float(rtt[min(k - 1, int(0.99 * k))]),
-                   "rtt_max_us": float(rtt[-1])} if k else {"rtt_n": 0})
+                   "rtt_max_us": float(rtt[-1]),
+                   "rtt_hist_counts": np.histogram(np.clip(rtt, RTT_HIST_EDGES_US[0], RTT_HIST_EDGES_US[-1]),
+                                                   RTT_HIST_EDGES_US)[0].tolist()} if k else {"rtt_n": 0})
         return {**rtt_us, "max_missed_in_row": self.max_missed_in_row, "seq": self.seq, "robot_mode": fp.ROBOT_MODE_NAMES[self.robot_mode],
                 "errors": fp.error_names(self.errors), "missed_in_row": self.missed_in_row,
                 "success_rate": (sum(self.window) / len(self.window)) if self.window else 1.0,
