@@ -319,3 +319,23 @@ def test_command_with_a_future_sequence_number_is_refused_and_not_applied(box):
         state = robot.read_once()
         assert state.robot_mode == "idle"
         assert abs(state.q[0] - q[0]) < 1e-3             # nothing moved
+
+
+def test_stats_are_answered_to_a_non_client_and_the_histogram_counts_every_round_trip(box):
+    from robocourse.drivers.franka_box import RTT_HIST_EDGES_US
+    from robocourse.drivers.franka_client import query_box_stats
+
+    with Robot(port=box.ports["udp"]) as robot:
+        def hold(state, period):
+            hold.k += 1
+            return JointPositions(state.q, motion_finished=hold.k >= 300)
+
+        hold.k = 0
+        robot.control(hold)
+        stats = query_box_stats(port=box.ports["udp"])       # a socket of its own, never CONNECTed
+        assert stats["client"][1] == robot.sock.getsockname()[1]   # the holder keeps the slot
+        assert stats.get("rejected_connects", 0) == 0 and stats.get("rx_foreign", 0) == 0
+        assert len(stats["rtt_hist_counts"]) == len(RTT_HIST_EDGES_US) - 1
+        assert sum(stats["rtt_hist_counts"]) == stats["rtt_n"] == 300   # one round trip per command answered
+    with pytest.raises(ValueError, match="port=0"):
+        query_box_stats(port=0)
