@@ -43,6 +43,18 @@ def wait_for(cond, seconds=5.0):
     return False
 
 
+def ramp_callback(q0, joint, delta, ramp_ticks, ticks):
+    """A Robot.control callback: move ``joint`` by ``delta`` rad over ``ramp_ticks``, finish after ``ticks``."""
+    def ramp(state, period):
+        ramp.k += 1
+        q = q0.copy()
+        q[joint] += delta * min(1.0, ramp.k / ramp_ticks)
+        return JointPositions(q, motion_finished=ramp.k >= ticks)
+
+    ramp.k = 0
+    return ramp
+
+
 def test_state_carries_six_joints_and_increasing_sequence_numbers(box):
     with Robot(port=box.ports["udp"]) as robot:
         assert (robot.n, robot.period_us, robot.max_missed) == (6, 1000, LENIENT)
@@ -58,13 +70,7 @@ def test_position_control_moves_joint_to_the_commanded_ramp_end(box):
     with Robot(port=box.ports["udp"]) as robot:
         q0 = robot.read_once().q
 
-        def ramp(state, period):
-            ramp.k += 1
-            q = q0.copy()
-            q[0] += 0.3 * min(1.0, ramp.k / 500)
-            return JointPositions(q, motion_finished=ramp.k >= 1500)
-
-        ramp.k = 0
+        ramp = ramp_callback(q0, joint=0, delta=0.3, ramp_ticks=500, ticks=1500)
         last = robot.control(ramp)
         assert ramp.k == 1500
         assert abs(last.q[0] - (q0[0] + 0.3)) < 0.01
@@ -244,14 +250,7 @@ def test_client_process_killed_mid_motion_frees_the_slot_and_the_next_client_rec
             assert robot.automatic_error_recovery() == []
             q0 = robot.read_once().q.copy()
 
-            def ramp(state, period):
-                ramp.k += 1
-                q = q0.copy()
-                q[1] += 0.2 * min(1.0, ramp.k / 400)
-                return JointPositions(q, motion_finished=ramp.k >= 1000)
-
-            ramp.k = 0
-            last = robot.control(ramp)
+            last = robot.control(ramp_callback(q0, joint=1, delta=0.2, ramp_ticks=400, ticks=1000))
             assert abs(last.q[1] - (q0[1] + 0.2)) < 0.01     # the new client controls the arm
             assert robot.box_stats()["recoveries"] == 1
     finally:
