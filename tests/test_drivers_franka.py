@@ -338,3 +338,19 @@ def test_stats_are_answered_to_a_non_client_and_the_histogram_counts_every_round
         assert sum(stats["rtt_hist_counts"]) == stats["rtt_n"] == 300   # one round trip per command answered
     with pytest.raises(ValueError, match="port=0"):
         query_box_stats(port=0)
+
+
+def test_roundtrip_state_rate_never_exceeds_the_box_tick_rate_even_after_a_slow_start():
+    from robocourse.drivers.measure import franka_roundtrip
+
+    calls = []
+
+    def slow_first():                          # a 50 ms stall at the first state: states pile up meanwhile
+        calls.append(1)
+        if len(calls) == 1:
+            time.sleep(0.05)
+
+    r = franka_roundtrip(0.3, work=slow_first)
+    assert r.states_sent >= 1 and r.wall_s > 0
+    assert r.states_sent <= r.wall_s * 1000 + 2       # sequence numbers over wall time: at most one per 1 ms tick
+    assert sum(r.rtt_hist_counts) >= r.commands_ok    # every command answered in time has its round trip binned

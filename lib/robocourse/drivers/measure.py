@@ -37,7 +37,7 @@ class RoundTrip:
     rtt_max_us: float
     box_overruns: int          # ticks the box itself could not keep
     states_sent: int = 0       # states the box sent during the run (by their sequence numbers)
-    wall_s: float = float("nan")   # wall time from the first to the last command
+    wall_s: float = float("nan")   # wall time from the first to the last state read
     rtt_hist_counts: tuple = ()    # round trips per bin of RTT_HIST_EDGES_US
 
     @property
@@ -87,19 +87,19 @@ def franka_roundtrip(seconds: float = 2.0, *, physics: bool = True, realtime: bo
             ctx = settings.realtime(quiet=True, heap_size=16 * 1024 * 1024) if realtime else contextlib.nullcontext()
             with ctx:
                 robot.resync()          # entering the settings took a while: start from a fresh state
-                seq0 = robot.last_seq
-                t_start = time.monotonic()
-                end = t_start + seconds
+                end = time.monotonic() + seconds
+                first = last = None     # (seq, time) of the first and the last state read
                 finished = False
                 while not finished:     # the last command ends the motion, inside the settings' block
                     if not robot.read_latest(0.5):
                         break
+                    last = (robot.last_seq, time.monotonic())
+                    first = first or last
                     if work is not None:
                         work()
                     finished = time.monotonic() >= end
                     robot.write_command(robot.q, motion_finished=finished)
-                wall = time.monotonic() - t_start
-                states = robot.last_seq - seq0     # the box numbers every state it sends
+                states, wall = (last[0] - first[0], last[1] - first[1]) if last else (0, 0.0)  # the box numbers its states
             time.sleep(0.01)
             s = robot.box_stats()
     finally:
