@@ -12,8 +12,9 @@ the same on every CPU; and each with and without the real-time settings
 (``robocourse.rt.settings.realtime``: SCHED_FIFO, locked + prefaulted memory, frozen gc; in
 the box and in the client). Round trip = the box's clock from sending state k to receiving
 the command for k (late ones included). Success = ticks whose command arrived before the next
-tick / ticks. "worst" = the longest run of missed ticks (libfranka-style reflex above 20 by
-our box's default). Each figure is the median over ``--rounds`` rounds, [min-max] beside it.
+tick / ticks. "worst" = the longest run of missed ticks (libfranka-style reflex above
+``franka_protocol.DEFAULT_MAX_MISSED``, our box's default). "states/s" = states the box sent
+per second of wall time (its sequence numbers over the client's clock). Each figure is the median over ``--rounds`` rounds, [min-max] beside it.
 The machine is shared with other engineers' test runs while this runs: absolute numbers move
 from run to run; compare rows of the same run.
 """
@@ -28,6 +29,7 @@ import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "lib"))
 
+from robocourse.drivers.franka_protocol import DEFAULT_MAX_MISSED as LIMIT  # noqa: E402
 from robocourse.drivers.measure import franka_roundtrip  # noqa: E402
 from robocourse.rt.disturb import CpuLoad  # noqa: E402
 from robocourse.rt.settings import (  # noqa: E402
@@ -78,7 +80,7 @@ def main(argv=None) -> int:
                 results[c].append(franka_roundtrip(a.seconds, physics=phys, realtime=rt))
         print(f"round {r + 1}/{a.rounds} done", flush=True)
     print(f"\n{'load':<26}{'RT':<4}{'loop':<11}{'p50 us':>16}{'p99 us':>20}{'max us':>22}{'success %':>24}"
-          f"{'worst run':>12}{'reflex@20':>11}")
+          f"{'worst run':>12}{'reflex@' + str(LIMIT):>11}{'states/s':>10}")
     floor = {}
     for c in configs:
         ld, rt, phys = c
@@ -86,7 +88,8 @@ def main(argv=None) -> int:
         p50, p99, mx = (med([getattr(x, f) for x in rs]) for f in ("rtt_p50_us", "rtt_p99_us", "rtt_max_us"))
         sr = med([100 * x.success_rate for x in rs])
         worst = max(x.max_missed_in_row for x in rs)
-        reflexes = sum(x.would_reflex(20) for x in rs)
+        reflexes = sum(x.would_reflex(LIMIT) for x in rs)
+        rate = med([x.state_rate_hz for x in rs])[0]
         if not phys:
             floor[(ld, rt)] = p99[0]
         ratio = f" x{p99[0] / floor[(ld, rt)]:.1f}" if phys and floor.get((ld, rt)) else ""
@@ -95,14 +98,14 @@ def main(argv=None) -> int:
               f"{p99[0]:>8.0f}{ratio:<5} [{p99[1]:>5.0f}-{p99[2]:<5.0f}]"
               f"{mx[0]:>8.0f} [{mx[1]:>5.0f}-{mx[2]:<6.0f}]"
               f"{sr[0]:>9.2f} [{sr[1]:>6.2f}-{sr[2]:<6.2f}]"
-              f"{worst:>8d}{reflexes:>7d}/{len(rs)}")
+              f"{worst:>8d}{reflexes:>7d}/{len(rs)}{rate:>10.0f}")
     idle_rt = [x.success_rate for x in results[("idle", True, True)]]
     goal = statistics.median(idle_rt) >= 0.999
     print(f"\ngoal: franka box idle with RT settings >= 99.90% success: median "
           f"{100 * statistics.median(idle_rt):.2f}% -> {'MET' if goal else 'NOT MET'} on this run")
     broke = [f"{LOADS[ld]}{' + RT' if rt else ''}" for (ld, rt, phys), rs in results.items()
-             if phys and any(x.would_reflex(20) for x in rs)]
-    print("runs where >20 ticks in a row were missed (a real robot would have stopped): "
+             if phys and any(x.would_reflex(LIMIT) for x in rs)]
+    print(f"runs where >{LIMIT} ticks in a row were missed (a real robot would have stopped): "
           + (", ".join(broke) if broke else "none"))
     print("ratio xN = franka p99 / UDP echo p99 under the same load and settings (the physics' and protocol's cost)")
     return 0

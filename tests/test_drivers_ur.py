@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
 import socket
 import struct
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -157,3 +161,79 @@ def test_stats_line_is_json(box):
     line = c.sock.recv(65536).decode()
     assert json.loads(line)["ticks"] >= 0
     c.close()
+
+
+# a client in its own process: RTDE stream + servoj toward joint 0 + 0.3 rad, forever; says STREAMING
+_CHILD = """
+import sys, time
+from robocourse.drivers.ur_client import RTDEControlInterface, RTDEReceiveInterface
+r = RTDEReceiveInterface(port=int(sys.argv[1]))
+c = RTDEControlInterface(port=int(sys.argv[2]))
+r.receive(2.0)
+q = r.getActualQ()
+q[0] += 0.3
+k = 0
+while True:
+    r.receive(0.0)
+    c.servoJ(q, time=0.002, lookahead_time=0.1)
+    k += 1
+    if k == 100:
+        print("STREAMING", flush=True)
+    time.sleep(0.002)
+"""
+
+
+def _retry(make, seconds=10.0):
+    deadline = time.monotonic() + seconds
+    while True:
+        try:
+            return make()
+        except RTDEError as exc:
+            if "busy" not in str(exc) or time.monotonic() > deadline:
+                raise
+            time.sleep(0.02)
+
+
+def test_client_process_killed_frees_both_channels_and_the_next_client_moves_the_arm():
+    box = start_ur_box(keepalive=0.4)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    child = subprocess.Popen([sys.executable, "-c", _CHILD, str(box.ports["rtde"]), str(box.ports["script"])],
+                             stdout=subprocess.PIPE, env=env)
+    try:
+        assert child.stdout.readline() == b"STREAMING\n"
+        os.kill(child.pid, signal.SIGKILL)             # no goodbye: the kernel closes its sockets
+        assert child.wait(5) == -signal.SIGKILL
+        r = _retry(lambda: RTDEReceiveInterface(port=box.ports["rtde"]))
+        c = _retry(lambda: RTDEControlInterface(port=box.ports["script"]))
+        stats = c.box_stats()
+        assert stats["connects"] == 4 and stats["disconnects"] == 2      # two channels, twice
+        assert r.receive(2.0) >= 1
+        goal = r.getActualQ()
+        goal[1] += 0.2
+        deadline = time.monotonic() + 10
+        while abs(r.getActualQ()[1] - goal[1]) > 0.01 and time.monotonic() < deadline:
+            c.servoJ(goal, time=0.002, lookahead_time=0.05)
+            r.receive(0.01)
+        assert abs(r.getActualQ()[1] - goal[1]) < 0.01       # the new client controls the arm
+        assert c.box_stats()["servoj"] > stats["servoj"]
+        r.close()
+        c.close()
+    finally:
+        child.kill()
+        child.wait()
+        box.stop()
+
+
+def test_a_hung_script_client_is_replaced_once_silent_longer_than_the_keepalive():
+    box = start_ur_box(keepalive=0.2)
+    try:
+        hung = socket.create_connection(("127.0.0.1", box.ports["script"]), timeout=2)   # connects, never writes
+        c = _retry(lambda: RTDEControlInterface(port=box.ports["script"]))
+        stats = c.box_stats()
+        assert stats["released_silent_clients"] == 1 and stats["connects"] == 2 and stats["disconnects"] == 1
+        hung.settimeout(2)
+        assert hung.recv(64) == b""                   # the box closed the hung connection
+        hung.close()
+        c.close()
+    finally:
+        box.stop()

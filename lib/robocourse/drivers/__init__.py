@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from robocourse.control import pluginlib as _pluginlib
 
+from . import franka_protocol as _fp
+from . import ur_protocol as _up
 from .arm import ARM_JOINTS
 from .description import CONTROLLERS_YAML, arm_urdf
 from .process import BoxProcess, BoxStartError
@@ -21,14 +23,16 @@ _pluginlib.register("robocourse/URStyleSystem", "robocourse.drivers.systems:URSt
                     _pluginlib.HARDWARE_BASE)
 
 
-def start_franka_box(port: int = 0, max_missed: int = 20, period_us: int = 1000, initial_positions=None,
-                     realtime: bool = False, physics: bool = True) -> BoxProcess:
+def start_franka_box(port: int = 0, max_missed: int = _fp.DEFAULT_MAX_MISSED, period_us: int = 1000, initial_positions=None,
+                     realtime: bool = False, physics: bool = True, client_timeout: int = 100) -> BoxProcess:
     """Start a Franka-style box process; ``box.ports["udp"]`` is its port. Stop it with ``box.stop()``.
 
     ``realtime``: the box tries SCHED_FIFO + locked memory (reports nothing if refused: it runs
     on). ``physics=False``: the same packets and timing with no arm behind them (the floor).
+    ``client_timeout``: ticks of silence after which another client may take the slot (a dead
+    client's; see :mod:`robocourse.drivers.franka_box`).
     """
-    args = ["--port", port, "--max-missed", max_missed, "--period-us", period_us]
+    args = ["--port", port, "--max-missed", max_missed, "--period-us", period_us, "--client-timeout", client_timeout]
     if not physics:
         args.append("--no-physics")
     if initial_positions is not None:
@@ -38,7 +42,7 @@ def start_franka_box(port: int = 0, max_missed: int = 20, period_us: int = 1000,
     return BoxProcess("franka", args).start()
 
 
-def start_ur_box(rtde_port: int = 0, script_port: int = 0, keepalive: float = 0.1, initial_positions=None,
+def start_ur_box(rtde_port: int = 0, script_port: int = 0, keepalive: float = _up.KEEPALIVE_S, initial_positions=None,
                  realtime: bool = False) -> BoxProcess:
     """Start a UR-style box process; ``box.ports["rtde"]`` and ``box.ports["script"]`` are its ports."""
     args = ["--port", rtde_port, "--script-port", script_port, "--keepalive", keepalive]

@@ -14,6 +14,9 @@ import sys
 import threading
 import time
 
+from .franka_protocol import DEFAULT_MAX_MISSED
+from .ur_protocol import KEEPALIVE_S
+
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m robocourse.drivers.box")
@@ -22,8 +25,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--port", type=int, default=0, help="franka: UDP port; ur: RTDE port (0 = free)")
     p.add_argument("--script-port", type=int, default=0, help="ur: script channel port (0 = free)")
     p.add_argument("--period-us", type=int, default=1000, help="franka: state period in us")
-    p.add_argument("--max-missed", type=int, default=20, help="franka: missed ticks in a row before the reflex")
-    p.add_argument("--keepalive", type=float, default=0.1, help="ur: script keepalive timeout in s")
+    p.add_argument("--max-missed", type=int, default=DEFAULT_MAX_MISSED, help="franka: missed ticks in a row before the reflex")
+    p.add_argument("--client-timeout", type=int, default=100,
+                   help="franka: ticks of silence after which another client may take the slot")
+    p.add_argument("--keepalive", type=float, default=KEEPALIVE_S, help="ur: script keepalive timeout in s")
     p.add_argument("--initial", default="", help="comma-separated initial joint positions (rad)")
     p.add_argument("--no-physics", action="store_true", help="franka: no arm behind the packets (round-trip floor)")
     p.add_argument("--rt", action="store_true", help="try SCHED_FIFO + mlockall for the box")
@@ -46,7 +51,8 @@ def main(argv=None) -> int:
             from .franka_box import FrankaBox
 
             box = FrankaBox(port=a.port, host=a.host, period_us=a.period_us, max_missed=a.max_missed,
-                            initial_positions=initial, physics=not a.no_physics)
+                            initial_positions=initial, physics=not a.no_physics,
+                            client_timeout=a.client_timeout)
             ready = f"READY udp={box.port}"
         else:
             from .ur_box import URBox
@@ -58,18 +64,22 @@ def main(argv=None) -> int:
         print(f"cannot bind {a.kind} box on {a.host} (port {a.port}, script port {a.script_port}): {exc}; "
               "pick another port or pass 0 for a free one", file=sys.stderr)
         return 2
+    except ValueError as exc:
+        print(f"cannot start the {a.kind} box: {exc}", file=sys.stderr)
+        return 2
     def stop(signum, frame):
         box.running = False
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    print(ready, flush=True)
-    if a.rt:
+    if a.rt:       # settings first (prefaulting the heap takes a while), then READY: a client never waits on them
         from robocourse.rt import settings
 
         with settings.realtime(quiet=True, heap_size=16 * 1024 * 1024):
+            print(ready, flush=True)
             box.run()
     else:
+        print(ready, flush=True)
         box.run()
     return 0
 

@@ -2,8 +2,10 @@
 
 ``ch05.franka_link``: the student's ``read()``/``write()`` (the cyclic pair of a Franka-style
 SystemInterface, franka_hardware's readOnce/writeOnce) run against a real Franka-style box
-process over loopback UDP, with a scripted disturbance: pauses of 8-14 ms between read() and
-write() at random ticks (a gc pause, heavy computation in the loop). The probe returns what
+process over loopback UDP, through a scripted load test: first chapter 1's CPU load
+(:class:`robocourse.rt.disturb.CpuLoad`, busy processes competing for a core) for the first
+``LOAD_TICKS`` ticks, then ``PAUSES`` pauses of ``PAUSE_MS`` ms between read() and write() at random ticks (a gc
+pause, heavy computation in the loop). The probe returns what
 the box counted (missed and late ticks, reflexes, malformed commands) and what the student's
 read() reported; the judge decides. A loop that answers queued stale states one by one after
 a pause sends a late command for every one of them; one that keeps only the newest state
@@ -18,37 +20,31 @@ import math
 from robocourse.grading import CheckFailed, Failures, register
 from robocourse.grading.probes import number
 
-TICKS = 1500
+TICKS = 2000
 RAMP = 300
+LOAD_TICKS = 500       # ticks run under CpuLoad (the pauses come after)
+PAUSES = 4             # pauses between read() and write() after the load phase
+PAUSE_MS = (8, 14)     # each lasts a whole number of ms in this range
+LOAD_PROCESSES = 1    # one busy process: with two, a 2-core machine already loaded failed the solution 3 of 5 times
 MAX_MISSED = 80    # ms: generous, so a loaded grading machine does not trip it; the stall test goes past it
 OFFSET = (0.15, -0.1, 0.1, 0.0, 0.1, -0.1)   # rad, reached after RAMP ticks
 
 
 def _inputs(rng):
-    ticks = sorted(int(t) for t in rng.choice(range(RAMP, TICKS - 50), size=4, replace=False))
-    return {"ticks": TICKS, "pauses": [[t, int(rng.integers(8, 15))] for t in ticks], "max_missed": MAX_MISSED,
+    ticks = sorted(int(t) for t in rng.choice(range(max(RAMP, LOAD_TICKS) + 50, TICKS - 50), size=PAUSES, replace=False))
+    return {"ticks": TICKS, "load": [LOAD_TICKS, LOAD_PROCESSES],
+            "pauses": [[t, int(rng.integers(PAUSE_MS[0], PAUSE_MS[1] + 1))] for t in ticks], "max_missed": MAX_MISSED,
             "offset": list(OFFSET)}
 
 
 def _box_stats(port: int) -> dict:
-    """The box's counters, asked from a socket of our own (the box answers STATS to anyone)."""
-    import json
-    import socket
+    """The box's counters, asked from a socket of our own (the box answers STATS to anyone); {} if silent."""
+    from .franka_client import NetworkException, query_box_stats
 
-    from . import franka_protocol as fp
-
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.settimeout(0.5)
-        for _ in range(4):
-            s.sendto(fp.header(fp.STATS), ("127.0.0.1", port))
-            try:
-                while True:
-                    data = s.recv(65536)
-                    if len(data) >= fp.HEADER.size and fp.HEADER.unpack_from(data)[2] == fp.STATS:
-                        return json.loads(data[fp.HEADER.size:])
-            except TimeoutError:
-                continue
-    return {}
+    try:
+        return query_box_stats(port=port, timeout=2.0)
+    except NetworkException:
+        return {}
 
 
 def _attr(obj, name):
@@ -62,9 +58,12 @@ def _attr(obj, name):
 
 def _probe(inputs, FrankaLink):  # noqa: N803 (the notebook's class name)
     """Run the student's read()/write() for ``ticks`` states against a Franka-style box process."""
+    import contextlib
     import time
 
     import numpy as np
+
+    from robocourse.rt.disturb import CpuLoad
 
     from . import start_franka_box
 
@@ -73,7 +72,10 @@ def _probe(inputs, FrankaLink):  # noqa: N803 (the notebook's class name)
     offset = np.asarray(inputs["offset"], dtype=float)
     box = start_franka_box(max_missed=inputs["max_missed"])
     link = None
+    load_ticks, load_processes = inputs["load"]
+    load = contextlib.ExitStack()
     try:
+        load.enter_context(CpuLoad(processes=load_processes))   # spinning before the loop starts
         port = box.ports["udp"]
         try:
             link = FrankaLink(port)
@@ -90,6 +92,9 @@ def _probe(inputs, FrankaLink):  # noqa: N803 (the notebook's class name)
                         break
                     continue
                 out["seqs"].append(_attr(link, "seq"))
+                if k == load_ticks:
+                    load.close()
+                    out["stats_after_load"] = _box_stats(port)
                 if k in pauses:
                     time.sleep(pauses[k] / 1000)      # the disturbance, between read() and write()
                     # the newest state the box has sent by now (asked on our own socket): it is
@@ -116,6 +121,7 @@ def _probe(inputs, FrankaLink):  # noqa: N803 (the notebook's class name)
         except Exception as exc:
             out["error"] = f"{type(exc).__name__}: {str(exc)[:300]}"
     finally:
+        load.close()
         if link is not None:
             try:
                 link.close()
@@ -210,5 +216,9 @@ def check_franka_link(inputs, out):
                   f"violation), but .errors after read() is {str(e)[:40]}: decode the state's errors field (bit 0)")
     else:
         raise RuntimeError("check error: the deliberate stall did not trigger the box's reflex")
-    return f.done(f"{ticks} states answered through {n_pauses} pauses ({pause_ms} ms): {late} late, {missed} missed, "
+    under = out.get("stats_after_load") or {}
+    load_txt = (f"{_count(under, 'commands_ok')}/{_count(under, 'ticks_moving')} on time under CPU load, "
+                if _count(under, "ticks_moving") else "")
+    return f.done(f"{load_txt}{ticks} states answered through CPU load and {n_pauses} pauses ({pause_ms} ms): "
+                  f"{late} late, {missed} missed, "
                   f"{ok}/{moving} on time, no reflex; the deliberate stall's reflex seen in .errors")

@@ -9,6 +9,25 @@ communication reflex when too many are missing, automatic error recovery. Protoc
 Each tick (absolute deadlines, ``period_us`` apart): apply the command that answered the
 previous state (or count a missed tick), step the physics one period, send the new state; in
 between, receive datagrams until the next deadline.
+
+One client at a time, and a client that dies does not keep the robot. The real robot holds
+libfranka's connection on TCP (port 1337): when the client process dies the kernel closes that
+connection, the robot aborts a running motion with a communication reflex
+(``communication_constraints_violation``), and the next ``franka::Robot(...)`` connects and has
+to call ``automaticErrorRecovery()`` before it moves. Our protocol is UDP only, so the box
+cannot see a process die; it sees silence. The rule here: the client *holds the slot* while it
+has sent any datagram within the last ``client_timeout`` ticks (default 100, i.e. 0.1 s at
+1 kHz). A CONNECT from another address is refused ("busy") while the slot is held and
+accepted once the holder has been silent longer (``released_silent_clients`` counts these);
+if the robot was moving then, that is the communication reflex, exactly as a lost TCP
+connection is on the real robot: the new client recovers, then moves. Where we differ: the
+release happens when a new client asks (lazily), not on a connection drop, and a live client
+that stays silent (reads states, sends nothing) for longer than ``client_timeout`` can lose
+its slot to a newcomer (its later commands count as ``rx_foreign``, its reads time out).
+
+A repeated CONNECT from the client that holds the slot (its ACK was lost: this is UDP) is
+acknowledged again and changes nothing (``repeated_connects``); a second client object in the
+same process has its own socket, hence its own address, and is refused like any other.
 """
 
 from __future__ import annotations
@@ -25,12 +44,19 @@ from .arm import BoxArm, NullArm
 from .ticker import TickingBox
 
 _RING = 1 << 15
+#: round-trip histogram bin edges in us, log-spaced 10 us .. 100 ms (sent with the stats: the
+#: raw ring does not fit in one datagram)
+RTT_HIST_EDGES_US = tuple(float(x) for x in np.geomspace(10.0, 100_000.0, 49))
 
 
 class FrankaBox(TickingBox):
-    def __init__(self, port: int = 0, host: str = "127.0.0.1", period_us: int = 1000, max_missed: int = 20,
-                 initial_positions=None, physics: bool = True):
+    def __init__(self, port: int = 0, host: str = "127.0.0.1", period_us: int = 1000, max_missed: int = fp.DEFAULT_MAX_MISSED,
+                 initial_positions=None, physics: bool = True, client_timeout: int = 100):
         super().__init__()
+        if not isinstance(client_timeout, int) or client_timeout < 1:
+            raise ValueError(f"client_timeout={client_timeout!r} must be a whole number of ticks >= 1 "
+                             "(silence after which another client may take the slot), e.g. 100")
+        self.client_timeout = client_timeout
         self.arm = (BoxArm if physics else NullArm)(timestep=period_us * 1e-6, initial_positions=initial_positions)
         self.n = self.arm.n
         self.period_ns = int(period_us) * 1000
@@ -41,6 +67,7 @@ class FrankaBox(TickingBox):
         self.sock.setblocking(False)
         self.port = self.sock.getsockname()[1]
         self.client = None
+        self.client_heard_seq = 0       # self.seq when the client last sent anything
         self.seq = 0
         self.robot_mode = fp.ROBOT_IDLE
         self.errors = 0
@@ -77,14 +104,25 @@ class FrankaBox(TickingBox):
         if version != fp.VERSION:
             c["rx_bad_version"] += 1
             return
+        if addr == self.client:
+            self.client_heard_seq = self.seq
         if mtype == fp.CONNECT:
             if self.client is not None and addr != self.client:
-                c["rejected_connects"] += 1
-                self._send(fp.header(fp.CONNECT_REJECT) + f"busy: another client ({self.client[0]}:{self.client[1]}) "
-                           "is connected; disconnect it first".encode(), addr)
-                return
+                silent = self.seq - self.client_heard_seq
+                if silent <= self.client_timeout:
+                    c["rejected_connects"] += 1
+                    self._send(fp.header(fp.CONNECT_REJECT) + (
+                        f"busy: another client ({self.client[0]}:{self.client[1]}) is connected and was heard "
+                        f"{silent} ticks ago; disconnect it first, or connect again once it has been silent "
+                        f"for more than {self.client_timeout} ticks").encode(), addr)
+                    return
+                self._release_silent_client()
+            if addr == self.client:
+                c["repeated_connects"] += 1
+            else:
+                c["connects"] += 1
             self.client = addr
-            c["connects"] += 1
+            self.client_heard_seq = self.seq
             self._send(fp.header(fp.CONNECT_ACK, self.n, self.seq) + fp.ACK.pack(self.period_us, self.max_missed), addr)
             return
         if mtype == fp.STATS:
@@ -133,6 +171,21 @@ class FrankaBox(TickingBox):
         else:
             c["rx_bad_type"] += 1
 
+    def _release_silent_client(self) -> None:
+        """The holder went silent (a dead process, as far as UDP can tell): free the slot; a
+        motion in progress ends in the communication reflex, as a dropped connection does."""
+        self.counters["released_silent_clients"] += 1
+        self.client = None
+        self.pending = None
+        if self.robot_mode == fp.ROBOT_MOVE:
+            self._reflex()
+
+    def _reflex(self) -> None:
+        self.robot_mode = fp.ROBOT_REFLEX
+        self.errors |= fp.ERR_COMMUNICATION_CONSTRAINTS_VIOLATION
+        self.counters["reflexes"] += 1
+        self.arm.hold()
+
     def sockets(self) -> list:
         return [self.sock]
 
@@ -164,10 +217,7 @@ class FrankaBox(TickingBox):
                 self.max_missed_in_row = max(self.max_missed_in_row, self.missed_in_row)
                 self.window.append(0)
                 if self.missed_in_row > self.max_missed:
-                    self.robot_mode = fp.ROBOT_REFLEX
-                    self.errors |= fp.ERR_COMMUNICATION_CONSTRAINTS_VIOLATION
-                    c["reflexes"] += 1
-                    arm.hold()
+                    self._reflex()
             else:
                 mode, finished, values = self.pending
                 c["commands_ok"] += 1
@@ -208,8 +258,10 @@ class FrankaBox(TickingBox):
         k = min(self.rtt_count, _RING)
         rtt = np.sort(self.rtt_ns[:k]) / 1e3 if k else None
         rtt_us = ({"rtt_n": k, "rtt_p50_us": float(rtt[k // 2]), "rtt_p99_us": float(rtt[min(k - 1, int(0.99 * k))]),
-                   "rtt_max_us": float(rtt[-1])} if k else {"rtt_n": 0})
-        return {**rtt_us, "max_missed_in_row": self.max_missed_in_row,"seq": self.seq, "robot_mode": fp.ROBOT_MODE_NAMES[self.robot_mode],
+                   "rtt_max_us": float(rtt[-1]),
+                   "rtt_hist_counts": np.histogram(np.clip(rtt, RTT_HIST_EDGES_US[0], RTT_HIST_EDGES_US[-1]),
+                                                   RTT_HIST_EDGES_US)[0].tolist()} if k else {"rtt_n": 0})
+        return {**rtt_us, "max_missed_in_row": self.max_missed_in_row, "seq": self.seq, "robot_mode": fp.ROBOT_MODE_NAMES[self.robot_mode],
                 "errors": fp.error_names(self.errors), "missed_in_row": self.missed_in_row,
                 "success_rate": (sum(self.window) / len(self.window)) if self.window else 1.0,
                 "client": list(self.client) if self.client else None, **self.counters}

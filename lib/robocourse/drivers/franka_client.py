@@ -61,6 +61,25 @@ class Torques:
     motion_finished: bool = False
 
 
+def query_box_stats(host: str = "127.0.0.1", port: int = 0, timeout: float = 1.0) -> dict:
+    """The box's counters without connecting (STATS is answered to anyone): what a monitoring
+    tool reads while another client, or none, holds the robot."""
+    if not isinstance(port, int) or not 0 < port < 65536:
+        raise ValueError(f"port={port!r} must be the box's UDP port (1..65535), e.g. box.ports['udp']")
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.connect((host, port))
+        s.settimeout(timeout / 3)
+        for _attempt in range(3):
+            s.send(fp.header(fp.STATS))
+            try:
+                reply = s.recv(65536)
+            except (TimeoutError, ConnectionRefusedError):
+                continue
+            if len(reply) >= fp.HEADER.size and fp.HEADER.unpack_from(reply)[2] == fp.STATS:
+                return json.loads(reply[fp.HEADER.size:])
+    raise NetworkException(f"no STATS reply from the box at {host}:{port} within {timeout} s (is it running?)")
+
+
 class Robot:
     """Connect to a Franka-style box (``franka::Robot``); ``n`` joints and ``period_us`` come from it."""
 

@@ -71,6 +71,8 @@ ERR_COMMUNICATION_CONSTRAINTS_VIOLATION = 1 << 0
 ERROR_NAMES = {ERR_COMMUNICATION_CONSTRAINTS_VIOLATION: "communication_constraints_violation"}
 
 SUCCESS_WINDOW = 100
+#: missed ticks in a row the box tolerates before the communication reflex (a box option)
+DEFAULT_MAX_MISSED = 20
 
 
 def state_struct(n: int) -> struct.Struct:

@@ -13,7 +13,11 @@ import contextlib
 import time
 from dataclasses import dataclass
 
+import numpy as np
+
+from . import franka_protocol as fp
 from . import start_franka_box
+from .franka_box import RTT_HIST_EDGES_US
 from .franka_client import Robot
 
 
@@ -32,12 +36,24 @@ class RoundTrip:
     rtt_p99_us: float
     rtt_max_us: float
     box_overruns: int          # ticks the box itself could not keep
+    states_sent: int = 0       # states the box sent during the run (by their sequence numbers)
+    wall_s: float = float("nan")   # wall time from the first to the last state read
+    rtt_hist_counts: tuple = ()    # round trips per bin of RTT_HIST_EDGES_US
+
+    @property
+    def state_rate_hz(self) -> float:
+        """States per second of wall time (the box's clock, as the client saw it run)."""
+        return self.states_sent / self.wall_s if self.wall_s > 0 else float("nan")
+
+    @property
+    def rtt_hist_edges_us(self) -> np.ndarray:
+        return np.asarray(RTT_HIST_EDGES_US)
 
     @property
     def success_rate(self) -> float:
         return self.commands_ok / self.ticks if self.ticks else 0.0
 
-    def would_reflex(self, max_missed: int = 20) -> bool:
+    def would_reflex(self, max_missed: int = fp.DEFAULT_MAX_MISSED) -> bool:
         return self.max_missed_in_row > max_missed
 
     def row(self) -> str:
@@ -72,14 +88,18 @@ def franka_roundtrip(seconds: float = 2.0, *, physics: bool = True, realtime: bo
             with ctx:
                 robot.resync()          # entering the settings took a while: start from a fresh state
                 end = time.monotonic() + seconds
+                first = last = None     # (seq, time) of the first and the last state read
                 finished = False
                 while not finished:     # the last command ends the motion, inside the settings' block
                     if not robot.read_latest(0.5):
                         break
+                    last = (robot.last_seq, time.monotonic())
+                    first = first or last
                     if work is not None:
                         work()
                     finished = time.monotonic() >= end
                     robot.write_command(robot.q, motion_finished=finished)
+                states, wall = (last[0] - first[0], last[1] - first[1]) if last else (0, 0.0)  # the box numbers its states
             time.sleep(0.01)
             s = robot.box_stats()
     finally:
@@ -88,4 +108,5 @@ def franka_roundtrip(seconds: float = 2.0, *, physics: bool = True, realtime: bo
                      f"{', RT' if realtime else ''}", seconds, s.get("ticks_moving", 0), s.get("commands_ok", 0),
                      s.get("missed", 0), s.get("late", 0), s.get("max_missed_in_row", 0),
                      s.get("rtt_p50_us", float("nan")), s.get("rtt_p99_us", float("nan")),
-                     s.get("rtt_max_us", float("nan")), s.get("box_overruns", 0))
+                     s.get("rtt_max_us", float("nan")), s.get("box_overruns", 0),
+                     states, wall, tuple(s.get("rtt_hist_counts", ())))

@@ -40,6 +40,9 @@ from . import franka_protocol as fp
 from .arm import ARM_JOINTS
 from .process import BoxProcess, BoxStartError
 
+#: read(): how long to wait for a state before returning ERROR (the default of the read_timeout param)
+READ_TIMEOUT_S = 0.1
+
 _STATES = ("position", "velocity", "effort")
 
 
@@ -83,7 +86,7 @@ class _BoxSystem(SystemInterface):
                                         f"{type(self).__name__} (it offers {list(self.COMMAND_MODES)})")
                 return CallbackReturn.ERROR
         try:
-            self.read_timeout = self._param("read_timeout", 0.1, 0.001, 10.0)
+            self.read_timeout = self._param("read_timeout", READ_TIMEOUT_S, 0.001, 10.0)
             self._read_params()
         except ValueError as exc:
             self.get_logger().error(str(exc))
@@ -199,7 +202,7 @@ class FrankaStyleSystem(_BoxSystem):
         p = self.info.hardware_parameters
         self.host = p.get("host", "127.0.0.1")
         self.port = int(self._param("port", 0, 0, 65535))
-        self.max_missed = int(self._param("max_missed", 20, 0, 100000))
+        self.max_missed = int(self._param("max_missed", fp.DEFAULT_MAX_MISSED, 0, 100000))
 
     def on_configure(self, previous_state):
         from .franka_client import NetworkException, Robot

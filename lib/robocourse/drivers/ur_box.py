@@ -5,6 +5,17 @@ robot runs its own 500 Hz loop whatever the client does; the client streams serv
 the robot follows the latest one; a lapsed keepalive stops the program. Protocol:
 :mod:`robocourse.drivers.ur_protocol`. Runs in its own process
 (:func:`robocourse.drivers.start_ur_box`).
+
+A client that dies does not keep the robot: both channels are TCP, so when the client's
+process dies (even by SIGKILL) the kernel closes its connections, the box reads EOF and frees
+the channel at once (``disconnects``); a lapsed keepalive has already stopped the servo
+program. A client that hangs without dying (stopped, or its host gone without a FIN) keeps
+its connections open: on the script channel the box then hands the slot to a new connection
+once the holder has sent nothing for longer than the keepalive (``released_silent_clients``),
+as a real UR controller lets a new program replace one that stopped. The RTDE channel has no
+such rule, because a streaming RTDE client sends nothing after START, so silence means
+nothing there; the real controller avoids the question by serving several RTDE clients at
+once, where ours serves one.
 """
 
 from __future__ import annotations
@@ -28,6 +39,7 @@ class _Conn:
         sock.setblocking(False)
         self.inbuf = bytearray()
         self.outbuf = bytearray()
+        self.heard_ns = time.monotonic_ns()   # when it last sent anything
 
 
 class URBox(TickingBox):
@@ -80,10 +92,15 @@ class URBox(TickingBox):
         if sock is self.rtde_listener or sock is self.script_listener:
             conn, _ = sock.accept()
             is_rtde = sock is self.rtde_listener
+            if (not is_rtde and self.script is not None
+                    and time.monotonic_ns() - self.script.heard_ns > self.keepalive_ns):
+                self.counters["released_silent_clients"] += 1
+                self._close(self.script)
             if (self.rtde if is_rtde else self.script) is not None:
                 self.counters["rejected_connects"] += 1
                 msg = (up.package(up.TEXT_MESSAGE, b"busy: another RTDE client is connected") if is_rtde
-                       else b"error: busy: another script client is connected\n")
+                       else b"error: busy: another script client is connected and sent a line within the "
+                       b"keepalive; stop it (or let it go silent for longer than the keepalive) first\n")
                 try:
                     conn.send(msg)
                 finally:
@@ -106,6 +123,7 @@ class URBox(TickingBox):
         if not data:
             self._close(conn)
             return
+        conn.heard_ns = time.monotonic_ns()
         conn.inbuf += data
         if conn is self.rtde:
             self._parse_rtde(conn)
