@@ -40,19 +40,28 @@ def _spin(ctx, node, cond, timeout=10.0):
     return cond()
 
 
-def test_transient_local_late_joiner_gets_the_last_depth_samples_across_the_wire(two):
+@pytest.mark.parametrize("pub_qos, sub_qos, want", [
+    # RELIABLE on both sides: the subscriber also recovers by heartbeat
+    (QoSProfile(depth=2, durability=DurabilityPolicy.TRANSIENT_LOCAL),
+     QoSProfile(depth=2, durability=DurabilityPolicy.TRANSIENT_LOCAL), [3, 4]),
+    # a BEST_EFFORT cache (no heartbeat) still serves a RELIABLE subscriber's history query
+    (QoSProfile(depth=3, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                reliability=ReliabilityPolicy.BEST_EFFORT),
+     QoSProfile(depth=3, durability=DurabilityPolicy.TRANSIENT_LOCAL), [2, 3, 4]),
+])
+def test_transient_local_late_joiner_gets_the_last_depth_samples_across_the_wire(
+        two, pub_qos, sub_qos, want):
     a, b = two
-    latched = QoSProfile(depth=2, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    pub = a.create_node("map_server").create_publisher(Int32, "/map", latched)
+    pub = a.create_node("map_server").create_publisher(Int32, "/map", pub_qos)
     for i in range(5):
         pub.publish(Int32(data=i))
     time.sleep(0.3)
     node = b.create_node("late")
     got = []
-    node.create_subscription(Int32, "/map", lambda m: got.append(m.data), latched)
-    assert _spin(b, node, lambda: len(got) >= 2)
+    node.create_subscription(Int32, "/map", lambda m: got.append(m.data), sub_qos)
+    assert _spin(b, node, lambda: len(got) >= len(want))
     _spin(b, node, lambda: False, 0.3)
-    assert got == [3, 4]
+    assert got == want
 
 
 def test_local_subscription_gets_each_sample_once_and_the_remote_one_too(two):
@@ -166,22 +175,6 @@ def test_reliable_transient_local_publisher_sends_sporadic_miss_detection_heartb
     key, payload = beats[0]
     assert key.startswith(wire.data_key(0, "/rel_tl", Int32) + f"/@adv/pub/{a.transport.zid}/")
     assert struct.unpack("<I", payload) == (0,)   # the first sample's sequence number
-
-
-def test_transient_local_subscriber_with_recovery_still_gets_history_from_a_best_effort_cache(two):
-    a, b = two
-    be_tl = QoSProfile(depth=3, durability=TRANSIENT_LOCAL, reliability=BEST_EFFORT)
-    pub = a.create_node("be_map").create_publisher(Int32, "/be_map", be_tl)
-    for i in range(5):
-        pub.publish(Int32(data=i))
-    time.sleep(0.3)
-    node = b.create_node("late_reliable")
-    got = []
-    node.create_subscription(Int32, "/be_map", lambda m: got.append(m.data),
-                             QoSProfile(depth=3, durability=TRANSIENT_LOCAL))
-    assert _spin(b, node, lambda: len(got) >= 3)
-    _spin(b, node, lambda: False, 0.3)
-    assert got == [2, 3, 4]
 
 
 def test_a_peer_with_another_type_on_our_name_never_communicates_and_is_named(two):
