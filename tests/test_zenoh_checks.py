@@ -118,19 +118,6 @@ def echo_not_sum(ctx):
     node.create_subscription(Int64, "/numbers", pub.publish, 100)
 
 
-def wrong_name(ctx):
-    from robocourse.msgs.std_msgs import Int64
-
-    node = ctx.create_node("summer")
-    pub = node.create_publisher(Int64, "/sum", 100)
-    total = [0]
-
-    def cb(m):
-        total[0] += m.data
-        pub.publish(Int64(data=total[0]))
-    node.create_subscription(Int64, "/numbers", cb, 100)
-
-
 def forgot_import(ctx):
     node = ctx.create_node("accumulator")
     node.create_publisher(Int64, "/sum", 100)  # noqa: F821 - Int64 is imported at module level only
@@ -140,7 +127,25 @@ def not_written(ctx):
     raise NotImplementedError()
 
 
-def test_child_node_check_runs_the_answer_in_another_process_and_reads_the_wire():
+def _with_source_changed(fn, old, new, tmp_path):
+    """``fn`` with one literal of its source replaced, written to a module file so that its
+    source can travel to the child like any answer's."""
+    import importlib.util
+    import inspect
+    import textwrap
+
+    source = textwrap.dedent(inspect.getsource(fn))
+    assert source.count(old) == 1, f"{old!r} must occur once in {fn.__name__}"
+    path = tmp_path / f"variant_{fn.__name__}.py"
+    path.write_text(source.replace(old, new))
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return getattr(module, fn.__name__)
+
+
+def test_child_node_check_runs_the_answer_in_another_process_and_reads_the_wire(tmp_path):
+    wrong_name = _with_source_changed(accumulator_ok, '"accumulator"', '"summer"', tmp_path)
     r = run("ch07.child_node", accumulator_ok, seed=3)
     assert r.passed and r.points == 3, r.message
     r = run("ch07.child_node", echo_not_sum, seed=3)

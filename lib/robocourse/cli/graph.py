@@ -139,46 +139,41 @@ def run_router(args) -> int:
     return 0
 
 
-def run_topic_list(args) -> int:
-    from robocourse.bus import introspection as ros2
-
+def _with_graph(args, read) -> int:
+    """Open the session, settle discovery, run ``read(ctx)`` (it prints; an int it returns is
+    the exit code, anything else means 0), leave the graph again whatever happens."""
     ctx = _open(args)
     if ctx is None:
         return 1
     try:
+        code = read(ctx)
+        return code if isinstance(code, int) else 0
+    finally:
+        ctx.try_shutdown()
+
+
+def run_topic_list(args) -> int:
+    from robocourse.bus import introspection as ros2
+
+    def read(ctx):
         rows = ros2.topic_list(ctx, show_types=args.show_types,
                                include_hidden=args.include_hidden_topics, quiet=True)
         for name, types in rows:
             print(f"{name} [{', '.join(types)}]" if args.show_types else name)
-    finally:
-        ctx.try_shutdown()
-    return 0
+    return _with_graph(args, read)
 
 
 def run_topic_info(args) -> int:
     from robocourse.bus import introspection as ros2
 
-    ctx = _open(args)
-    if ctx is None:
-        return 1
-    try:
-        info = ros2.topic_info(ctx, args.topic_name, verbose=args.verbose)
-    finally:
-        ctx.try_shutdown()
-    return 0 if info["type"] is not None else 1
+    return _with_graph(args, lambda ctx: 0 if ros2.topic_info(
+        ctx, args.topic_name, verbose=args.verbose)["type"] is not None else 1)
 
 
 def run_node_list(args) -> int:
     from robocourse.bus import introspection as ros2
 
-    ctx = _open(args)
-    if ctx is None:
-        return 1
-    try:
-        ros2.node_list(ctx, include_hidden=args.all)
-    finally:
-        ctx.try_shutdown()
-    return 0
+    return _with_graph(args, lambda ctx: ros2.node_list(ctx, include_hidden=args.all))
 
 
 def run_topic_echo(args) -> int:

@@ -3,9 +3,15 @@
 ``Context(transport="zenoh", domain_id=0, connect=["tcp/127.0.0.1:7447"])`` opens one zenoh
 session (peer mode, multicast scouting off, listening on loopback, connecting to a router:
 rmw_zenoh's defaults, ``DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5``). Start the router with
-``robocourse zenoh router`` (rmw_zenoh: ``ros2 run rmw_zenoh_cpp rmw_zenohd``). Two machines:
-run the router on one with ``--listen tcp/0.0.0.0:7447`` and give every context
-``connect=["tcp/<that machine>:7447"], listen=["tcp/0.0.0.0:0"]``.
+``robocourse zenoh router`` (rmw_zenoh: ``ros2 run rmw_zenoh_cpp rmw_zenohd``).
+
+Two machines, one option: on machine A run ``robocourse zenoh router --listen
+tcp/0.0.0.0:7447`` (rmw_zenohd listens on ``tcp/[::]:7447`` by default); on machine B the one
+option is ``connect=["tcp/<A's address>:7447"]``. A connect endpoint that is not loopback makes
+the context listen on every interface (``tcp/0.0.0.0:0`` instead of ``tcp/127.0.0.1:0``), so
+peers the router introduces can open a direct link to it, as rmw_zenoh peers do. Nodes on A
+itself keep the loopback default; what B cannot reach directly, the router forwards (zenoh's
+peer failover brokering). ``listen=[...]`` still overrides the default either way.
 
 What goes on the wire is exactly rmw_zenoh's (see :mod:`robocourse.bus.zenoh.wire`): every
 publisher puts CDR on ``<domain>/<topic>/<dds type>/RIHS01_<hash>`` with the 33-byte
@@ -19,10 +25,12 @@ Counterparts and differences:
 - A remote endpoint on one of our names with another type or type hash never communicates
   (the key differs, as in rmw_zenoh); unlike rmw_zenoh we log a warning saying why and keep
   it in ``transport.mismatches``.
-- QoS: RELIABLE/BEST_EFFORT map to zenoh reliability, RELIABLE+KEEP_ALL to congestion
-  control BLOCK (otherwise DROP); TRANSIENT_LOCAL uses zenoh-ext's advanced publisher (a
-  cache of ``depth`` samples, publisher detection) and advanced subscriber (history for late
-  joiners), as rmw_zenoh. QoS compatibility is not negotiated across the wire (zenoh has no
+- QoS (:func:`zenoh_qos`): RELIABLE/BEST_EFFORT map to zenoh reliability, RELIABLE+KEEP_ALL
+  to congestion control BLOCK (otherwise DROP); TRANSIENT_LOCAL uses zenoh-ext's advanced
+  publisher (a cache of ``depth`` samples, publisher detection) and advanced subscriber
+  (history for late joiners), and RELIABLE+TRANSIENT_LOCAL adds sample-miss detection (a
+  sporadic heartbeat every 0.5 s on the publisher, recovery by heartbeat on the subscriber),
+  as rmw_zenoh. QoS compatibility is not negotiated across the wire (zenoh has no
   such check; rmw_zenoh neither).
 - Actions are their three services and two topics (``<action>/_action/send_goal``,
   ``cancel_goal``, ``get_result``, ``feedback``, ``status``) with the action's own wire types
@@ -34,20 +42,30 @@ Counterparts and differences:
 - Discovery trickles in after the session opens: ``transport.settle()`` waits for it to go
   quiet (the CLI does; ``ros2`` keeps a daemon for the same reason).
 - Time: across processes the attachment's source timestamp is wall time (ns since 1970),
-  whatever the context's clock; simulated time stays in-process.
+  whatever the context's clock; simulated time stays in-process. A
+  ``Context(use_sim_time=True, transport="zenoh")`` logs one warning saying so (rclpy has no
+  such warning: /clock is an ordinary topic there; here it is not carried).
 - Remote endpoints appear in the introspection calls (``node_list``, ``topic_list``,
   ``topic_info``, ``service_list``) but not in ``get_subscription_count`` (local only).
 """
 
 from __future__ import annotations
 
+import ipaddress
 import itertools
 import threading
 import time
+from dataclasses import dataclass
 
 from robocourse.bus.zenoh import wire
 
 DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
+#: what a peer listens on: loopback by default (rmw_zenoh: ``tcp/localhost:0``), every
+#: interface once it connects to another machine
+LISTEN_LOOPBACK, LISTEN_ALL = "tcp/127.0.0.1:0", "tcp/0.0.0.0:0"
+#: rmw_zenoh's sporadic sample-miss-detection heartbeat for RELIABLE + TRANSIENT_LOCAL
+#: publishers (rmw_publisher_data.cpp), seconds
+HEARTBEAT_PERIOD = 0.5
 #: rmw_zenoh's ``queries_default_timeout`` (DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5), seconds
 QUERY_TIMEOUT = 600.0
 #: rmw_zenoh waits forever (UINT64_MAX ms) for ``**/_action/get_result/**``; a year will do
@@ -80,6 +98,62 @@ def _endpoints(name, value):
         raise ValueError(f"{name}={value!r} must be a list of zenoh locators such as "
                          f"['tcp/127.0.0.1:7447']")
     return list(value)
+
+
+def is_loopback(endpoint: str) -> bool:
+    """True when a zenoh locator (``tcp/127.0.0.1:7447``, ``tcp/localhost:7447``,
+    ``tcp/[::1]:7447``) names this machine's loopback interface."""
+    addr = endpoint.split("/", 1)[1].split("#", 1)[0]
+    host = addr.rsplit(":", 1)[0] if ":" in addr else addr
+    host = host.strip("[]")
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False            # a host name: another machine as far as we can tell
+
+
+def default_listen(mode: str, connect) -> list[str]:
+    """The listen endpoints a context gets when ``listen`` is not given: none for a client,
+    loopback for a peer that only connects to this machine, every interface for a peer that
+    connects to another machine (so peers there can reach it directly)."""
+    if mode != "peer":
+        return []
+    return [LISTEN_ALL] if any(not is_loopback(e) for e in connect) else [LISTEN_LOOPBACK]
+
+
+@dataclass(frozen=True)
+class ZenohQoS:
+    """What one endpoint's QoS becomes on zenoh (rmw_zenoh's ``rmw_publisher_data.cpp`` and
+    ``rmw_subscription_data.cpp``).
+
+    ``reliable``: zenoh reliability RELIABLE (else BEST_EFFORT). ``block``: congestion control
+    BLOCK (else DROP). ``history``: TRANSIENT_LOCAL depth (advanced publisher cache, advanced
+    subscriber history with late-publisher detection), None when VOLATILE. ``heartbeat``:
+    the publisher's sporadic sample-miss-detection period in seconds, None when off.
+    ``recovery``: the subscriber's recovery by heartbeat."""
+
+    reliable: bool
+    block: bool
+    history: int | None
+    heartbeat: float | None
+    recovery: bool
+
+
+def zenoh_qos(qos) -> ZenohQoS:
+    """rmw_zenoh's mapping: RELIABLE -> reliable; RELIABLE + KEEP_ALL -> BLOCK, otherwise
+    DROP; TRANSIENT_LOCAL -> a ``depth`` cache / history (depth 0 keeps 1); RELIABLE +
+    TRANSIENT_LOCAL -> sporadic heartbeat every :data:`HEARTBEAT_PERIOD` s on the publisher
+    and recovery with heartbeat on the subscriber."""
+    from robocourse.bus.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
+
+    reliable = qos.reliability != ReliabilityPolicy.BEST_EFFORT
+    latched = qos.durability == DurabilityPolicy.TRANSIENT_LOCAL
+    return ZenohQoS(reliable=reliable, block=reliable and qos.history == HistoryPolicy.KEEP_ALL,
+                    history=max(qos.depth, 1) if latched else None,
+                    heartbeat=HEARTBEAT_PERIOD if latched and reliable else None,
+                    recovery=latched and reliable)
 
 
 def router(listen=(DEFAULT_ROUTER,)):
@@ -125,10 +199,11 @@ class ZenohTransport:
             raise ValueError(f"mode={mode!r} must be 'peer' (rmw_zenoh's default) or 'client'")
         connect = _endpoints("connect", connect) if connect is not None else [DEFAULT_ROUTER]
         listen = _endpoints("listen", listen) if listen is not None else \
-            (["tcp/127.0.0.1:0"] if mode == "peer" else [])
+            default_listen(mode, connect)
         self.ctx = ctx
         self.domain_id = domain_id
         self.connect = connect
+        self.listen = listen
         try:
             self.session = zenoh.open(_config(mode, connect, listen, connect_timeout))
         except zenoh.ZError as exc:
@@ -159,6 +234,16 @@ class ZenohTransport:
                 self._on_token(reply.ok)
         ctx.add_graph_listener(self.sync)
         ctx.on_shutdown(self.close)
+        if ctx.use_sim_time:
+            from robocourse.bus.logging import RcutilsLogger
+
+            RcutilsLogger("zenoh_transport", ctx).warning(
+                "use_sim_time=True with transport='zenoh': simulated time stays in this "
+                "process. Nodes in other processes keep their own clocks, and every sample's "
+                "attachment carries wall time (ns since 1970), not this context's simulated "
+                "time. Fix: drive both sides from wall time (Context(transport='zenoh') "
+                "without use_sim_time) when they must agree on time, or keep a simulated graph "
+                "in one process")
         self.sync()
 
     # ------------------------------------------------------------------ our entities
@@ -235,20 +320,18 @@ class ZenohTransport:
                     pass
 
     def _declare_publisher(self, key, qos):
-        from robocourse.bus.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
-
-        z = self._zenoh
-        reliable = qos.reliability != ReliabilityPolicy.BEST_EFFORT
-        cc = z.CongestionControl.BLOCK if reliable and qos.history == HistoryPolicy.KEEP_ALL \
-            else z.CongestionControl.DROP
-        rel = z.Reliability.RELIABLE if reliable else z.Reliability.BEST_EFFORT
-        if qos.durability == DurabilityPolicy.TRANSIENT_LOCAL:
+        z, q = self._zenoh, zenoh_qos(qos)
+        cc = z.CongestionControl.BLOCK if q.block else z.CongestionControl.DROP
+        rel = z.Reliability.RELIABLE if q.reliable else z.Reliability.BEST_EFFORT
+        if q.history is not None:
             from zenoh import ext
 
+            miss = None if q.heartbeat is None else \
+                ext.MissDetectionConfig(heartbeat=None, sporadic_heartbeat=q.heartbeat)
             return ext.declare_advanced_publisher(
                 self.session, key, congestion_control=cc, reliability=rel,
-                allowed_destination=z.Locality.REMOTE,
-                cache=ext.CacheConfig(max(qos.depth, 1)), publisher_detection=True)
+                allowed_destination=z.Locality.REMOTE, cache=ext.CacheConfig(q.history),
+                sample_miss_detection=miss, publisher_detection=True)
         return self.session.declare_publisher(key, congestion_control=cc, reliability=rel,
                                               allowed_destination=z.Locality.REMOTE)
 
@@ -267,18 +350,17 @@ class ZenohTransport:
         return send
 
     def _declare_subscriber(self, key, sub):
-        from robocourse.bus.qos import DurabilityPolicy
-
-        z = self._zenoh
+        z, q = self._zenoh, zenoh_qos(sub.qos_profile)
         on_sample = self._on_sample(sub)
-        if sub.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL:
+        if q.history is not None:
             from zenoh import ext
 
+            recovery = ext.RecoveryConfig(periodic_queries=None, heartbeat=True) \
+                if q.recovery else None
             return ext.declare_advanced_subscriber(
                 self.session, key, on_sample, allowed_origin=z.Locality.REMOTE,
-                history=ext.HistoryConfig(detect_late_publishers=True,
-                                          max_samples=max(sub.qos_profile.depth, 1)),
-                subscriber_detection=True)
+                history=ext.HistoryConfig(detect_late_publishers=True, max_samples=q.history),
+                recovery=recovery, subscriber_detection=True)
         return self.session.declare_subscriber(key, on_sample, allowed_origin=z.Locality.REMOTE)
 
     def _dropped(self, what, where, node):
