@@ -823,3 +823,20 @@ def test_realtime_run_on_a_sim_time_context_advances_the_sim_clock_with_the_cycl
     # the timer fired during the run on the simulated clock (every 50 ms of cycle time)
     during = [t for t in ticks if t > round(t_before * 1e9)]
     assert during and all(t % 50_000_000 == 0 for t in during)
+
+
+def test_orderly_shutdown_logs_info_not_error():
+    # mirrors upstream's ControllerManager::shutdown_controllers() as a ros2_control_node logs it on Ctrl-C
+    # ("Shutting down all controllers in the controller manager." then "Deactivating controller 'x'", all INFO);
+    # no upstream unit test checks these lines
+    from robocourse.control.log import LoggingSeverity
+
+    cm = make_cm()
+    add(cm, "c", TestController([P1], [P1]))
+    assert cm.switch_controller(["c"], [], STRICT) == return_type.OK
+    cm.step(1)
+    cm.shutdown()
+    assert state(cm, "c") == INACTIVE
+    assert cm.log.messages("controller_manager", LoggingSeverity.ERROR) == []
+    info = cm.log.messages("controller_manager", LoggingSeverity.INFO)
+    assert info[-2:] == ["Shutting down all controllers in the controller manager.", "Deactivating controller 'c'"]

@@ -710,8 +710,11 @@ class ControllerManager:
             self.logger.error(f"After deactivating, controller '{spec.name}' is in state '{state.label}', expected "
                               "'inactive'")
 
-    def _deactivate_now(self, names, reason: str) -> list[str]:
-        """Deactivate ``names`` (and everything preceding them) immediately, inside the loop."""
+    def _deactivate_now(self, names, reason: str, quiet: bool = False) -> list[str]:
+        """Deactivate ``names`` (and everything preceding them) immediately, inside the loop.
+
+        An error deactivates with one ERROR line naming the victims; ``quiet`` (an orderly
+        shutdown) logs each at INFO instead, as upstream's ``shutdown_controllers`` does."""
         group = set()
         for n in names:
             group.add(n)
@@ -722,9 +725,11 @@ class ControllerManager:
                         group.add(p)
                         todo.append(p)
         victims = [s for s in self._ordered if s.name in group and s.state == ACTIVE]
-        if victims:
+        if victims and not quiet:
             self.logger.error(f"Deactivating controllers: [ {' '.join(s.name for s in victims)} ] {reason}")
         for s in victims:
+            if quiet:
+                self.logger.info(f"Deactivating controller '{s.name}'")
             self._deactivate(s)
         for s in self._active:
             if s.c.is_chainable() and s.c.is_in_chained_mode() and s.state == ACTIVE and not any(
@@ -904,8 +909,13 @@ class ControllerManager:
         return self.rm.set_component_state(name, target)
 
     def shutdown(self) -> None:
-        """Deactivate every controller, then deactivate and finalize the hardware (on Ctrl-C too)."""
-        self._deactivate_now([s.name for s in self._active], "on shutdown")
+        """Deactivate every controller, then deactivate and finalize the hardware (on Ctrl-C too).
+
+        Logged at INFO like upstream's ``ControllerManager::shutdown_controllers()``: an orderly
+        shutdown is not an error."""
+        if self._active:
+            self.logger.info("Shutting down all controllers in the controller manager.")
+        self._deactivate_now([s.name for s in self._active], "on shutdown", quiet=True)
         self.rm.shutdown_components()
 
     # --- introspection data (what the list_* services return) --------------------------------------------------------
