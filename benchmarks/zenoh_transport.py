@@ -2,6 +2,7 @@
 and the chapter 2 pendulum graph split across two processes at 1 kHz. Same run, same payloads.
 
     .venv/bin/python benchmarks/zenoh_transport.py [--repeats 5] [--n 1000] [--quick]
+    .venv/bin/python benchmarks/zenoh_transport.py --stages [--n 2000]
 
 A zenoh router runs in this process on a free loopback port (rmw_zenoh's defaults: peers,
 multicast scouting off). Rows:
@@ -38,52 +39,81 @@ split into the hand-off's share (raw + hand-off / raw) and robocourse's layers' 
 (robocourse / raw + hand-off). The machine is shared: only same-run ratios compare.
 
 Example output of one run (``--repeats 5 --n 500 --flood 2000 --seconds 3``, 2026-11 branch
-s3-zenoh, a shared 2-core box under other engineers' load; one run's figures, not a
+s3-zperf, a shared 2-core box under other engineers' load; one run's figures, not a
 specification):
 
     round trip (publish -> echo in the other process -> back), microseconds; median [min..max] over repeats
     payload  path                                 p50 us                     p99 us                     msgs/s
-    small (29 B) in-process bus              6.1 [6.1..10.6]            7.4 [6.7..18.2]  151,412 [84,777..155,021]
-    small (29 B) robocourse/zenoh       323.9 [320.5..374.5]       445.7 [393.4..471.0]    43,471 [39,743..43,787]
-    small (29 B) raw + hand-off         216.7 [211.6..274.5]       282.4 [264.2..338.6] 268,291 [241,600..305,225]
-    small (29 B) raw zenoh              183.3 [167.8..228.6]       258.9 [218.2..348.2] 232,549 [174,617..347,073]
-      small: robocourse/zenoh p50 = 1.77x [1.64..1.92] raw zenoh (median of per-repeat ratios [min..max]; goal <= 1.5x: NOT met)
-        = 1.21x [1.17..1.29] for the two thread hand-offs alone (raw + hand-off / raw) x 1.48x [1.36..1.53] for robocourse's layers (robocourse / raw + hand-off); 52.8x the in-process bus; throughput 0.18x [0.13..0.25] raw zenoh
-    1 kB (1021 B) in-process bus               6.1 [6.1..6.2]             7.5 [6.6..7.5] 152,215 [149,609..153,145]
-    1 kB (1021 B) robocourse/zenoh       321.7 [317.2..331.3]       409.6 [396.4..426.6]    44,535 [35,545..51,491]
-    1 kB (1021 B) raw + hand-off         221.2 [214.6..231.9]       308.8 [279.9..340.1] 226,875 [135,819..257,936]
-    1 kB (1021 B) raw zenoh              184.6 [173.9..225.9]       258.5 [221.9..316.3] 255,475 [165,388..298,697]
-      1 kB: robocourse/zenoh p50 = 1.75x [1.42..1.85] raw zenoh (median of per-repeat ratios [min..max]; goal <= 1.5x: NOT met)
-        = 1.21x [0.96..1.26] for the two thread hand-offs alone (raw + hand-off / raw) x 1.46x [1.43..1.50] for robocourse's layers (robocourse / raw + hand-off); 52.5x the in-process bus; throughput 0.18x [0.13..0.31] raw zenoh
+    small (29 B) in-process bus               6.2 [6.1..6.2]            7.9 [6.6..12.6] 152,212 [142,978..154,410]
+    small (29 B) robocourse/zenoh       317.4 [312.3..334.0]       390.0 [381.3..486.5]    45,025 [40,022..62,223]
+    small (29 B) raw + hand-off         210.0 [185.4..219.0]       274.5 [262.3..310.7] 273,951 [266,896..295,779]
+    small (29 B) raw zenoh              181.0 [173.7..191.5]       240.5 [232.0..276.5] 297,969 [181,961..332,125]
+      small: robocourse/zenoh p50 = 1.74x [1.66..1.92] raw zenoh (median of per-repeat ratios [min..max]; goal <= 1.5x: NOT met)
+        = 1.16x [1.07..1.21] for the two thread hand-offs alone (raw + hand-off / raw) x 1.49x [1.44..1.80] for robocourse's layers (robocourse / raw + hand-off); 51.3x the in-process bus; throughput 0.16x [0.15..0.27] raw zenoh
+    1 kB (1021 B) in-process bus               6.2 [6.2..6.2]             7.7 [6.7..9.2] 151,769 [148,921..152,780]
+    1 kB (1021 B) robocourse/zenoh       323.2 [294.5..345.2]       411.4 [383.5..451.1]    55,867 [36,366..59,258]
+    1 kB (1021 B) raw + hand-off         209.0 [203.3..211.3]       274.8 [269.5..276.0] 214,846 [212,694..239,282]
+    1 kB (1021 B) raw zenoh              180.7 [171.7..185.2]       236.2 [227.7..264.3] 282,392 [214,712..322,860]
+      1 kB: robocourse/zenoh p50 = 1.76x [1.61..2.01] raw zenoh (median of per-repeat ratios [min..max]; goal <= 1.5x: NOT met)
+        = 1.15x [1.10..1.22] for the two thread hand-offs alone (raw + hand-off / raw) x 1.53x [1.41..1.64] for robocourse's layers (robocourse / raw + hand-off); 52.3x the in-process bus; throughput 0.21x [0.13..0.25] raw zenoh
 
     pendulum graph at 1 kHz for 3 s: late = one-way latency > 1 ms or lost (sensor + command messages); median [min..max] over repeats
     graph                          late %            sensor p50 us              sensor p99 us             command p99 us  messages
-    one process            0.0 [0.0..0.0]           6.1 [5.9..6.6]          22.7 [17.6..23.8]          26.1 [18.4..27.8]      6203
-    two processes          0.2 [0.2..0.3]     181.1 [174.0..201.6]       337.2 [294.4..363.5]       335.0 [299.2..362.8]      6217
+    one process            0.0 [0.0..0.0]           5.9 [5.7..6.2]          18.2 [13.0..25.0]          19.7 [15.1..30.7]      6208
+    two processes          0.2 [0.1..0.3]     200.0 [172.5..204.7]       383.3 [295.3..401.3]       377.9 [302.4..399.8]      6217
       two processes: 0.21 % late (goal < 1 %: met)
 
-The goal (robocourse within 1.5x of raw zenoh's p50) is NOT met: 1.77x and 1.75x in that run
-(a run of the same hot path just before, reported then as the ratio of the medians: 1.90x and
-1.91x). No hot-path change came out of this round: the probes below found no cost that can go
-without breaking a semantic or replacing the codec. Of the ~140 us robocourse adds to raw
-zenoh's round trip in that run (small: 323.9 - 183.3; 1 kB: 321.7 - 184.6), the two thread
-hand-offs take ~35 us (raw + hand-off - raw) and robocourse's layers ~100-107 us. Timing
-probes inside the echo process (one probe run, p50 per hop) put zenoh's callback -> the
-subscription callback at 28..41 us: attachment and payload access 3.5, mcap_ros2's CDR
-decode 7.4, building the message with its field checks 2.4, queueing and the executor wake
-3.6, the executor thread waking and taking the GIL 7..10; the raw hand-off's equivalent was
-9..13 us.
+    stages of one hop in the echo process (small String, 2000 round trips), p50 us
+      zenoh callback: attachment access + check        3.6
+      payload to bytes                                 0.6
+      mcap_ros2 CDR decode                             9.8
+      build the message (field checks)                 3.0
+      queue + wake the executor                        8.6
+      executor thread wakes, takes the message        12.6
+      callback -> publish -> sender                    2.6
+      mcap_ros2 CDR encode                            11.4
+      attachment                                       1.0
+      zenoh put call                                  19.6
+      whole hop: zenoh callback -> put returns        81.2
+      zenoh: client put -> echo callback             106.7
+      zenoh: echo put -> client callback              99.4
+      round trip (client publish -> callback)        325.4
 
-- The hand-offs are the price of rclpy's rule that a subscription callback runs on the
-  spinning thread; answering inside zenoh's callback would remove them and break that rule
-  (and callback groups), so they stay.
-- The layers are Python work per hop: mcap_ros2's generic CDR decode and encode (the issue
-  asks for a well-kept codec, not a hand-written one), the value-semantics copy and the
-  constructor's field checks, and the executor's poll loop, all with cold caches on a loaded
-  box (the same decode costs 2-3 us in a warm loop). A code-generating CDR library (e.g.
-  rosbags' serde) is the next thing to try; it is a new dependency, so not done here.
-Throughput is limited by the same per-message Python work (~0.2x raw zenoh). The pendulum
-split holds the goal (< 1 % late).
+(the stage table is a separate ``--stages --n 2000`` run, same day; its stamps add ~0.2 us
+each, and medians of stages do not add up to the median of the whole hop.)
+
+The goal (robocourse within 1.5x of raw zenoh's p50) is NOT met: 1.74x (small) and 1.76x
+(1 kB) in that run; meeting it there would need the round trip at 271 us instead of 317, i.e.
+~46 us less. Where robocourse's ~136 us over raw zenoh go (small: 317.4 - 181.0), from the
+two runs above:
+
+- the two thread hand-offs, ~29 us (raw + hand-off - raw: 210.0 - 181.0). In robocourse they
+  are "queue + wake" and "executor thread wakes", 8.6 + 12.6 us per hop, ~42 us per round
+  trip, so the executor's wake path costs ~13 us per round trip more than a bare lock
+  hand-off. rclpy's rule that callbacks run on the spinning thread needs the hand-off.
+- mcap_ros2's CDR codec, ~48 us per round trip (decode 9.8 + build 3.0 + encode 11.4 per
+  hop, x 2). In a warm loop the same decode takes 1.5 us and the encode 2.4 us: the
+  ping-pong path runs with cold caches, so every Python step costs 4-6x its warm time.
+- rmw_zenoh's attachment, ~9 us per round trip in Python (3.6 + 1.0 per hop) plus carrying
+  33 more bytes per sample in zenoh (the zenoh legs, 106.7 / 99.4 us one way, include it).
+- the publish layers (callback -> publish -> sender), ~5 us per round trip.
+
+This round changed no hot path: the two candidates measured did not pay off. (1) Running
+the transport's sample callback directly in zenoh's network thread
+(``handlers.Callback(..., indirect=False)``, removing zenoh-python's own Python-thread hop;
+user callbacks would still run on the executor) was slower in a quick run (p50 2.93x raw
+vs 1.86x in the run before it, throughput halved): the network thread has to take the GIL
+for every sample. (2) Handing the zenoh sender the publisher's message instead of a copy
+(the CDR bytes are the snapshot) made no measurable difference (interleaved quick runs,
+small p50 324.8 / 314.8 us before vs 332.9 / 331.4 us after): a String copy is ~0.15 us.
+What could reach the goal is the codec: a code-generating CDR library (e.g. rosbags' serde)
+instead of mcap_ros2's interpreted one is the next thing to try; it is a new dependency, so
+not done here. Throughput is limited by the same per-message Python work (~0.2x raw
+zenoh). The pendulum split holds its goal (< 1 % late).
+
+Stages (``--stages [--n 2000]``): one robocourse ping-pong with timing probes in both
+processes (``perf_counter_ns``, CLOCK_MONOTONIC, so stamps compare across processes on one
+machine): the p50 of each stage of the echo's hop and of the two zenoh legs.
 """
 
 from __future__ import annotations
@@ -390,6 +420,138 @@ def pendulum_run(endpoint, seconds, split):
             "command_p99": c[2], "messages": n_s + n_c}
 
 
+# ------------------------------------------------------------------------------ stage probe
+STAGES = ("rx_enter", "rx_attachment", "rx_payload", "rx_decoded", "rx_built", "rx_queued",
+          "cb_start", "send", "encoded", "put_enter", "put_return")
+
+
+def _install_stage_probes(stamps):
+    """Time each stage of robocourse's hop in this process: ``stamps[stage]`` gets one
+    ``perf_counter_ns`` (CLOCK_MONOTONIC: comparable across processes on one machine) per
+    message. The zenoh callback and the sender are the transport's own steps with a stamp
+    between each (the probes add ~0.2 us per stamp); the executor's ``_run`` is wrapped."""
+    from robocourse.bus import executors
+    from robocourse.bus.zenoh import transport, wire
+
+    def stamp(k, now=time.perf_counter_ns):
+        stamps[k].append(now())
+
+    def on_sample(self, sub):
+        dec, build, ok = wire._codec(sub.msg_type)[1], wire._builder(sub.msg_type), \
+            wire.attachment_ok
+
+        def probe(sample):
+            stamp("rx_enter")
+            good = ok(sample.attachment.to_bytes())
+            stamp("rx_attachment")
+            data = sample.payload.to_bytes()
+            stamp("rx_payload")
+            d = dec(data)
+            stamp("rx_decoded")
+            m = build(d)
+            stamp("rx_built")
+            if good:
+                sub._deliver(m)
+            stamp("rx_queued")
+        return probe
+
+    def sender(self, loc):
+        put, seq, enc = loc.zobj.put, loc.seq, wire.encoder(loc.t)
+        attach, now = wire.attachment_packer(loc.gid), time.time_ns
+
+        def probe(msg):
+            stamp("send")
+            data = enc(msg)
+            stamp("encoded")
+            att = attach(next(seq), now())
+            stamp("put_enter")
+            put(data, attachment=att)
+            stamp("put_return")
+        return probe
+
+    run = executors.Executor._run
+
+    def run_probe(self, ent, work):
+        stamp("cb_start")
+        run(self, ent, work)
+
+    transport.ZenohTransport._on_sample = on_sample
+    transport.ZenohTransport._sender = sender
+    executors.Executor._run = run_probe
+
+
+def stage_echo(endpoint, out):
+    """The robocourse echo (as ``peer echo``) with stage probes; writes its stamps to ``out``."""
+    from robocourse.bus import Context, HistoryPolicy, QoSProfile, SingleThreadedExecutor
+    from robocourse.msgs.std_msgs import String
+
+    stamps = {k: [] for k in STAGES}
+    _install_stage_probes(stamps)
+    ctx = Context(transport="zenoh", connect=[endpoint])
+    qos = QoSProfile(depth=7, history=HistoryPolicy.KEEP_ALL)
+    node = ctx.create_node("echo")
+    pub = node.create_publisher(String, "/pong", qos)
+    node.create_subscription(String, "/ping", pub.publish, qos)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    print("READY", flush=True)
+    closed = threading.Event()
+    threading.Thread(target=lambda: (sys.stdin.read(), closed.set()), daemon=True).start()
+    while not closed.is_set():
+        ex.spin_once(timeout_sec=0.1)
+    ctx.try_shutdown()
+    with open(out, "w") as f:
+        json.dump(stamps, f)
+
+
+def stages(n):
+    """One robocourse ping-pong of ``n`` small messages with both sides probed: the p50 of
+    each stage of one hop in the echo process, and the round trip."""
+    from robocourse.bus import Context
+    from robocourse.bus.zenoh.transport import router
+
+    stamps = {k: [] for k in STAGES}
+    _install_stage_probes(stamps)
+    ep = f"tcp/127.0.0.1:{_free_port()}"
+    r = router([ep])
+    out = os.path.join(tempfile.mkdtemp(prefix="zstages_"), "echo.json")
+    echo = _spawn([__file__, "--role", "stage-echo", "--connect", ep, "--out", out])
+    ctx = Context(transport="zenoh", connect=[ep])
+    side = BusSide(ctx, local_echo=False)
+    ctx.transport.wait_for(lambda t: len([e for e in t.remote_entities("MS")
+                                          if e.topic == "/ping"]) == 1, 20)
+    time.sleep(0.5)
+    rtt = side.pingpong(_payload("small"), n + 100)[100:]
+    echo.stdin.close()
+    echo.wait(timeout=20)
+    ctx.try_shutdown()
+    r.close()
+    with open(out) as f:
+        e = {k: np.asarray(v[-n:], dtype=float) for k, v in json.load(f).items()}
+    c = {k: np.asarray(v[-n:], dtype=float) for k, v in stamps.items()}
+
+    def p50(a, b):
+        return float(np.median(b - a)) / 1e3
+
+    print(f"stages of one hop in the echo process (small String, {n} round trips), p50 us")
+    rows = [("zenoh callback: attachment access + check", "rx_enter", "rx_attachment"),
+            ("payload to bytes", "rx_attachment", "rx_payload"),
+            ("mcap_ros2 CDR decode", "rx_payload", "rx_decoded"),
+            ("build the message (field checks)", "rx_decoded", "rx_built"),
+            ("queue + wake the executor", "rx_built", "rx_queued"),
+            ("executor thread wakes, takes the message", "rx_queued", "cb_start"),
+            ("callback -> publish -> sender", "cb_start", "send"),
+            ("mcap_ros2 CDR encode", "send", "encoded"),
+            ("attachment", "encoded", "put_enter"),
+            ("zenoh put call", "put_enter", "put_return")]
+    for label, a, b in rows:
+        print(f"  {label:44} {p50(e[a], e[b]):7.1f}")
+    print(f"  {'whole hop: zenoh callback -> put returns':44} {p50(e['rx_enter'], e['put_return']):7.1f}")
+    print(f"  {'zenoh: client put -> echo callback':44} {p50(c['put_enter'], e['rx_enter']):7.1f}")
+    print(f"  {'zenoh: echo put -> client callback':44} {p50(e['put_enter'], c['rx_enter']):7.1f}")
+    print(f"  {'round trip (client publish -> callback)':44} {float(np.median(rtt)) / 1e3:7.1f}")
+
+
 # ------------------------------------------------------------------------------ main
 def _free_port():
     with socket.socket() as s:
@@ -419,7 +581,8 @@ def fmt(t, unit="", digits=1):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--role", choices=["raw-echo", "handoff-echo", "motor", "controller"])
+    ap.add_argument("--role", choices=["raw-echo", "handoff-echo", "motor", "controller",
+                                       "stage-echo"])
     ap.add_argument("--connect")
     ap.add_argument("--out")
     ap.add_argument("--repeats", type=int, default=5)
@@ -427,7 +590,13 @@ def main():
     ap.add_argument("--flood", type=int, default=5000, help="messages per throughput run")
     ap.add_argument("--seconds", type=float, default=5.0, help="pendulum run length")
     ap.add_argument("--quick", action="store_true", help="3 repeats, fewer messages")
+    ap.add_argument("--stages", action="store_true",
+                    help="only time each stage of a robocourse hop (probes in both processes)")
     a = ap.parse_args()
+    if a.role == "stage-echo":
+        return stage_echo(a.connect, a.out)
+    if a.stages:
+        return stages(a.n)
     if a.role in ("raw-echo", "handoff-echo"):
         return raw_echo(a.connect, handoff=a.role == "handoff-echo")
     if a.role in ("motor", "controller"):
