@@ -217,6 +217,8 @@ def test_max_effort_interface_gets_the_goal_effort_or_the_default():
     assert hw.get_command("joint1/max_effort") == 10.0           # hold: back to the default
     c.send([0.01])
     assert hw.get_command("joint1/max_effort") == 10.0           # a goal without effort: the default
+    c.send([0.02], effort=[0.0])
+    assert hw.get_command("joint1/max_effort") == 0.0            # zero too: the goal's value as given
 
 
 def test_ur5e_gripper_in_mujoco_opens_and_closes():

@@ -17,7 +17,8 @@ Differences: a goal outside the joint's URDF limits, without a position or with 
 non-finite value is rejected with the reason (upstream accepts it and lets the hardware
 clamp); without a ``max_velocity_interface`` the controller itself moves the position
 command towards the goal at the maximum velocity (upstream writes the goal at once and leaves
-speed to the hardware); deactivation aborts an active goal.
+speed to the hardware), and then a goal's positive velocity sets that ramp's speed (upstream
+ignores a goal velocity without the interface); deactivation aborts an active goal.
 """
 
 from __future__ import annotations
@@ -180,8 +181,14 @@ class ParallelGripperController(ControllerInterface):
         p = self.params
         cmd = handle.request.command
         self.goals.finish("abort", self._result(False, False))     # preempt_active_goal()
-        self.max_velocity = cmd.velocity[0] if len(cmd.velocity) and cmd.velocity[0] > 0 else p.max_velocity
-        self.max_effort = cmd.effort[0] if len(cmd.effort) and cmd.effort[0] > 0 else p.max_effort
+        # upstream's accepted_callback: with the interface configured, a goal's value is used as given
+        # (0 included); without it, the default. Without a max_velocity_interface our own position ramp
+        # (a difference, see above) takes a positive goal velocity: a ramp at 0 would never move.
+        if len(cmd.velocity) and (p.max_velocity_interface or cmd.velocity[0] > 0):
+            self.max_velocity = cmd.velocity[0]
+        else:
+            self.max_velocity = p.max_velocity
+        self.max_effort = cmd.effort[0] if p.max_effort_interface and len(cmd.effort) else p.max_effort
         self.last_movement_time = self.get_node().get_clock().now().nanoseconds * 1e-9
         self.command = self.position
         self.target = float(cmd.position[0])
