@@ -91,3 +91,26 @@ def test_sandbox_sees_only_its_folder_and_read_only_library(tmp_path):
     assert lines[0] == "['tmp']" and lines[1] == "False" and lines[2] == "False"
     assert lines[3] == "OSError 30"  # EROFS: read-only file system
     assert int(lines[4]) <= 3  # bwrap's init and this process: nothing else is visible
+
+
+@needs_bwrap
+def test_a_course_living_under_tmp_keeps_its_read_only_binds_and_a_private_tmp(tmp_path):
+    # a clone (and its venv) under /tmp: bwrap failed with "Can't make symlink at /tmp: File exists"
+    import subprocess
+    import tempfile
+
+    with tempfile.TemporaryDirectory(dir="/tmp") as course:
+        with open(os.path.join(course, "lib.txt"), "w") as f:
+            f.write("library")
+        work = tmp_path / "w"
+        (work / "tmp").mkdir(parents=True)
+        code = (f"import os\nprint(open({course!r} + '/lib.txt').read())\n"
+                f"try:\n    open({course!r} + '/x', 'w')\nexcept OSError as exc:\n    print('OSError', exc.errno)\n"
+                "open('/tmp/scratch.txt', 'w').write('mine')\nprint(sorted(os.listdir('/submission')))")
+        cmd = sandbox.bwrap_command(work, [sys.executable, "-c", code], sandbox.clean_env(sandbox.SANDBOX_ROOT, "t"),
+                                    read_only=[*sandbox._read_only_paths(), course])
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
+        assert out.returncode == 0, out.stderr
+        assert out.stdout.splitlines() == ["library", "OSError 30", "['tmp']"]
+        assert (work / "tmp" / "scratch.txt").read_text() == "mine"   # /tmp is the submission's own tmp
+        assert not os.path.exists(os.path.join(course, "x"))

@@ -142,7 +142,13 @@ def _read_only_paths() -> list[str]:
     return out
 
 
-def bwrap_command(workdir: Path, argv: list[str], env: dict) -> list[str]:
+def bwrap_command(workdir: Path, argv: list[str], env: dict, read_only: list[str] | None = None) -> list[str]:
+    """The bwrap argv: /usr, the Python installation and ``read_only`` (default: the venv and the
+    library) read-only, ``workdir`` at /submission, and /tmp the submission's own ``tmp``.
+
+    /tmp is bound before the read-only paths, so a course that lives under /tmp (a clone in
+    /tmp, a venv in /tmp) still gets its read-only binds on top of the submission's /tmp (a
+    symlink at /tmp could not be made once a bind had created the directory)."""
     cmd = [bwrap_path(), "--unshare-all", "--die-with-parent", "--new-session", "--cap-drop", "ALL",
            "--unshare-user", "--uid", "65534", "--gid", "65534", "--ro-bind", "/usr", "/usr"]
     for top in ("bin", "lib", "lib64", "lib32", "sbin"):
@@ -154,10 +160,11 @@ def bwrap_command(workdir: Path, argv: list[str], env: dict) -> list[str]:
     for etc in ("ld.so.cache", "ld.so.conf", "ld.so.conf.d", "localtime", "fonts", "alternatives", "passwd",
                 "group", "nsswitch.conf", "matplotlibrc"):
         cmd += ["--ro-bind-try", f"/etc/{etc}", f"/etc/{etc}"]
-    for p in _read_only_paths():
+    cmd += ["--bind", str(workdir / "tmp"), "/tmp"]
+    for p in _read_only_paths() if read_only is None else read_only:
         cmd += ["--ro-bind", p, p]
     cmd += ["--proc", "/proc", "--dev", "/dev", "--bind", str(workdir), SANDBOX_ROOT,
-            "--symlink", f"{SANDBOX_ROOT}/tmp", "/tmp", "--chdir", SANDBOX_ROOT, "--clearenv"]
+            "--chdir", SANDBOX_ROOT, "--clearenv"]
     for k, v in env.items():
         cmd += ["--setenv", k, v]
     return cmd + ["--"] + argv
