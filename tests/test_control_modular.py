@@ -243,3 +243,15 @@ def test_source_must_be_callable():
     with pytest.raises(ValueError, match="source=3 must be a callable source"):
         ForceTorqueSensor(3)
     assert ForceTorqueSensor(lambda t: (0,) * 6).read_errors == 0
+
+
+def test_mujoco_loads_the_modular_variant_with_the_same_bodies_and_joints():
+    # the real client: MuJoCo ignores the <ros2_control> elements, so both wirings are one robot
+    mujoco = pytest.importorskip("mujoco")
+    from robocourse.sim.robots import urdf_text
+
+    plain = mujoco.MjModel.from_xml_string(urdf_text("rrbot"))
+    modular = mujoco.MjModel.from_xml_string(urdf_text("rrbot", variant="modular_fts"))
+    assert [modular.joint(i).name for i in range(modular.njnt)] == ["joint1", "joint2"]
+    assert (modular.nbody, modular.njnt, modular.nq) == (plain.nbody, plain.njnt, plain.nq)
+    assert modular.body_mass.tolist() == plain.body_mass.tolist()
