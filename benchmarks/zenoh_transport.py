@@ -421,7 +421,7 @@ def pendulum_run(endpoint, seconds, split):
 
 
 # ------------------------------------------------------------------------------ stage probe
-STAGES = ("rx_enter", "rx_attachment", "rx_payload", "rx_decoded", "rx_built", "rx_queued",
+STAGES = ("rx_enter", "rx_attachment", "rx_payload", "rx_decoded", "rx_queued",
           "cb_start", "send", "encoded", "put_enter", "put_return")
 
 
@@ -437,8 +437,7 @@ def _install_stage_probes(stamps):
         stamps[k].append(now())
 
     def on_sample(self, sub):
-        dec, build, ok = wire._codec(sub.msg_type)[1], wire._builder(sub.msg_type), \
-            wire.attachment_ok
+        dec, ok = wire.decoder(sub.msg_type), wire.attachment_ok
 
         def probe(sample):
             stamp("rx_enter")
@@ -446,10 +445,8 @@ def _install_stage_probes(stamps):
             stamp("rx_attachment")
             data = sample.payload.to_bytes()
             stamp("rx_payload")
-            d = dec(data)
+            m = dec(data)
             stamp("rx_decoded")
-            m = build(d)
-            stamp("rx_built")
             if good:
                 sub._deliver(m)
             stamp("rx_queued")
@@ -536,12 +533,11 @@ def stages(n):
     print(f"stages of one hop in the echo process (small String, {n} round trips), p50 us")
     rows = [("zenoh callback: attachment access + check", "rx_enter", "rx_attachment"),
             ("payload to bytes", "rx_attachment", "rx_payload"),
-            ("mcap_ros2 CDR decode", "rx_payload", "rx_decoded"),
-            ("build the message (field checks)", "rx_decoded", "rx_built"),
-            ("queue + wake the executor", "rx_built", "rx_queued"),
+            ("CDR decode into the message (field checks)", "rx_payload", "rx_decoded"),
+            ("queue + wake the executor", "rx_decoded", "rx_queued"),
             ("executor thread wakes, takes the message", "rx_queued", "cb_start"),
             ("callback -> publish -> sender", "cb_start", "send"),
-            ("mcap_ros2 CDR encode", "send", "encoded"),
+            ("CDR encode", "send", "encoded"),
             ("attachment", "encoded", "put_enter"),
             ("zenoh put call", "put_enter", "put_return")]
     for label, a, b in rows:

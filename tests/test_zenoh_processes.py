@@ -170,8 +170,12 @@ def test_plain_zenoh_client_gets_its_sequence_number_and_gid_back(ctx, endpoint,
     ex.add_node(node)
     raw = spawn(str(RAW), "call", endpoint)
     replies = []
-    done = _spin_until(ex, lambda: _poll_line(raw, replies) and len(replies) == 2)
+    done = _spin_until(ex, lambda: _poll_line(raw, replies) and len(replies) == 3)
     assert done, f"the raw client reported only {replies} within 20 s"
+    bad, replies = replies[0], replies[1:]
+    # a request that is not AddTwoInts in CDR gets an error reply naming why, and is counted
+    assert "does not decode" in bad["truncated_request_error"], bad
+    assert ctx.transport.dropped_undecodable == 1
     assert [(r["sum"], r["seq"], r["gid_echoed"]) for r in replies] == \
         [(42, 41, True), (43, 42, True)], replies
     assert replies[0]["key"].startswith("0/add_two_ints/example_interfaces::srv::dds_::")
@@ -185,8 +189,8 @@ def _poll_line(p, into):
     return True
 
 
-def test_faults_missing_attachment_dropped_other_hash_warned_bad_token_counted(ctx, endpoint,
-                                                                               spawn):
+def test_faults_missing_attachment_undecodable_dropped_other_hash_warned_bad_token_counted(
+        ctx, endpoint, spawn):
     node = ctx.create_node("listener")
     got = []
     node.create_subscription(String, "/chatter", lambda m: got.append(m.data), 10)
@@ -195,8 +199,10 @@ def test_faults_missing_attachment_dropped_other_hash_warned_bad_token_counted(c
     spawn(str(RAW), "faults", endpoint)
     t = ctx.transport
     assert _spin_until(ex, lambda: t.dropped_no_attachment >= 10 and t.mismatches
-                       and t.malformed_tokens)
-    assert got == []                               # neither the bare nor the other-hash samples
+                       and t.malformed_tokens and t.dropped_undecodable >= 20)
+    assert got == []          # neither the bare, the other-hash nor the undecodable samples
+    undecodable = [r.msg for r in ctx.log_records if "transport.dropped_undecodable" in r.msg]
+    assert len(undecodable) == 1 and "std_msgs/msg/String" in undecodable[0], undecodable
     assert "never communicate" in t.mismatches[0] and "RIHS01_000" in t.mismatches[0]
     assert "unknown entity kind" in t.malformed_tokens[0][1]
     assert any("never communicate" in r.msg for r in ctx.log_records)

@@ -1,5 +1,6 @@
 """rmw_zenoh's bytes: checked against the reference values (shared/reference/ros2_zenoh.md)."""
 
+import array
 import math
 
 import pytest
@@ -12,6 +13,7 @@ from robocourse.bus.qos import (
     ReliabilityPolicy,
 )
 from robocourse.bus.zenoh import wire
+from robocourse.msgs import message
 from robocourse.msgs.example_interfaces import AddTwoInts
 from robocourse.msgs.std_msgs import String
 
@@ -161,16 +163,153 @@ def _message_types():
                   key=lambda t: t._type)
 
 
+def _mcap_codec(t):
+    """mcap-ros2-support's CDR codec for ``t``: an independent implementation to check the
+    transport's (rosbags') bytes against."""
+    from mcap_ros2._dynamic import serialize_dynamic
+
+    from robocourse.msgs import definition_name, full_definition
+    from robocourse.msgs._core import wire_view
+
+    schema = definition_name(t._type)
+    enc = serialize_dynamic(schema, full_definition(t))[schema]
+    dec = generate_dynamic(schema, full_definition(t))[schema]
+    return (lambda msg: bytes(enc(wire_view(msg)))), dec
+
+
 @pytest.mark.parametrize("t", _message_types(), ids=lambda t: t._type)
-def test_bound_encoder_and_decoder_give_to_cdr_bytes_for_every_type(t):
-    """The publisher/subscription hot path (wire.encoder / wire.decoder) puts exactly
-    to_cdr's bytes on the wire and decodes them to equal values, empty and populated."""
+def test_every_type_encodes_to_mcap_ros2s_bytes_and_decodes_back(t):
+    """For every registered type, empty and populated: the publisher's encoder gives exactly
+    the bytes of mcap-ros2-support's codec (another implementation of ROS 2 CDR), to_cdr gives
+    the same, and the subscription's decoder returns an equal message of the type."""
+    enc, _ = _mcap_codec(t)
     for msg in (t(), _populated(t)):
         data = wire.to_cdr(msg)
-        assert wire.encoder(t)(msg) == data
+        assert data == enc(msg)
+        assert wire.encoder(t, buffer=True)(msg) == data
         back = wire.decoder(t)(data)
         assert type(back) is t and back == msg == wire.from_cdr(t, data)
         assert wire.to_cdr(back) == data
+
+
+@message("wire_test_msgs/msg/Inner", """
+bool[3] flags
+float32[2] xy
+string<=4 tag
+""")
+class Inner:
+    pass
+
+
+@message("wire_test_msgs/msg/Every", """
+bool b
+byte by
+char ch
+int8 i8
+uint8 u8
+int16 i16
+uint16 u16
+int32 i32
+uint32 u32
+int64 i64
+uint64 u64
+float32 f32
+float64 f64
+string s
+string<=10 sb
+bool[] bseq
+bool[2] barr
+uint8[] octets
+byte[4] byte_arr
+int8[<=5] i8b
+float64[] f64seq
+float64[3] f64arr
+string[] sseq
+string<=3[2] sarr
+wire_test_msgs/Inner inner
+wire_test_msgs/Inner[] inners
+wire_test_msgs/Inner[2] inner_arr
+""")
+class Every:
+    pass
+
+
+def _every():
+    return Every(
+        b=True, by=255, ch=65, i8=-128, u8=255, i16=-32768, u16=65535, i32=-2**31,
+        u32=2**32 - 1, i64=-2**63, u64=2**64 - 1, f32=1.5, f64=math.inf, s="h\u00e9llo",
+        sb="0123456789", bseq=[True, False, True], barr=[False, True], octets=b"\x00\x01\xff",
+        byte_arr=[1, 2, 3, 4], i8b=[-1, 2], f64seq=[1.0, 2.5], f64arr=[1, 2, 3],
+        sseq=["a", "", "ccc"], sarr=["ab", "c"],
+        inner=Inner(flags=[True, False, True], xy=[1, 2], tag="abcd"),
+        inners=[Inner(), Inner(tag="x")])
+
+
+def test_every_field_kind_at_its_limits_matches_mcap_ros2():
+    """Each primitive at its range limits, bounded strings and sequences at their bounds,
+    bool/byte/numeric sequences and arrays, nested messages in arrays and sequences,
+    alignment after odd sizes: mcap-ros2-support's bytes, and back to an equal message."""
+    msg = _every()
+    enc, dec = _mcap_codec(Every)
+    data = wire.to_cdr(msg)
+    assert data == enc(msg)
+    assert dec(data).u64 == 2**64 - 1 and dec(data).s == "h\u00e9llo"
+    back = wire.from_cdr(Every, data)
+    assert back == msg
+
+
+def test_decoded_arrays_are_the_messages_own_and_writable():
+    """A received message owns its values (no view into the payload or another message):
+    fixed arrays are writable numpy arrays, sequences array.array, as rclpy's."""
+    data = wire.to_cdr(_every())
+    a, b = wire.from_cdr(Every, data), wire.from_cdr(Every, data)
+    a.f64arr[0] = 99.0
+    a.inner.xy[1] = 7.0
+    a.f64seq[0] = -1.0
+    assert b.f64arr[0] == 1.0 and b.inner.xy[1] == 2.0 and b.f64seq[0] == 1.0
+    assert isinstance(b.f64seq, array.array) and b.f64arr.flags.owndata
+
+
+def test_big_endian_cdr_decodes():
+    """The encapsulation header says the byte order; a big-endian sender (00 00 00 00) is read
+    as well (we always send little-endian, as ROS 2 on x86/ARM does)."""
+    be = bytes.fromhex("00000000" "00000006") + b"hello\x00"
+    assert wire.from_cdr(String, be) == String(data="hello")
+    be = bytes.fromhex("00000000" "0000000000000002" "fffffffffffffffd")
+    assert wire.from_cdr(AddTwoInts.Request, be) == AddTwoInts.Request(a=2, b=-3)
+
+
+@pytest.mark.parametrize("t, data, match", [
+    (String, b"", "not a CDR encapsulation header"),
+    (String, b"\x01\x01\x00\x00\x01\x00\x00\x00\x00", "not a CDR encapsulation header"),
+    (String, b"\x00\x01\x00\x00\xff\xff\xff\x7fab", "does not decode"),       # length > payload
+    (String, b"\x00\x01\x00\x00\x03\x00\x00\x00abc", "does not decode"),      # no NUL
+    (String, b"\x00\x01\x00\x00\x03\x00\x00\x00\xff\xfe\x00", "does not decode"),  # not UTF-8
+    (AddTwoInts.Request, b"\x00\x01\x00\x00" + bytes(8), "does not decode"),      # truncated
+    (AddTwoInts.Request, b"\x00\x01\x00\x00" + bytes(24), "left over"),           # too long
+])
+def test_undecodable_payloads_are_refused_with_the_reason(t, data, match):
+    with pytest.raises(wire.CdrError, match=match) as err:
+        wire.from_cdr(t, data)
+    assert t._type in str(err.value)
+
+
+def test_a_bound_broken_by_the_sender_is_refused_like_a_constructor_call():
+    """CDR does not carry bounds: a sender with an unbounded definition may put 5 characters
+    where ours allows 4 (Inner.tag is string<=4). The type's own check refuses the value."""
+    data = wire.to_cdr(Inner(tag="abcd"))
+    assert data.endswith(b"\x05\x00\x00\x00abcd\x00")
+    longer = data[:-9] + b"\x06\x00\x00\x00abcde\x00"
+    with pytest.raises(wire.CdrError, match="does not decode.*tag"):
+        wire.from_cdr(Inner, longer)
+
+
+def test_wstring_fields_are_refused_with_the_fix():
+    @message("wire_test_msgs/msg/Wide", "wstring text\n")
+    class Wide:
+        pass
+    with pytest.raises(TypeError, match="wstring.*use string"):
+        wire.to_cdr(Wide())
 
 
 def test_attachment_packer_matches_encode_attachment():

@@ -63,6 +63,8 @@ def main(role, endpoint):
             s.put(key, enc({"data": f"no attachment {i}"}))                   # dropped
             s.put(f"0/chatter/std_msgs::msg::dds_::String_/RIHS01_{'0' * 64}",
                   enc({"data": f"other hash {i}"}), attachment=att(i))       # other key
+            s.put(key, b"\x00\x01\x00\x00\xff\xff\xff\x7fabc", attachment=att(i))  # huge length
+            s.put(key, b"not CDR at all", attachment=att(i))                # no CDR header
             time.sleep(0.01)
     elif role == "call":
         req = serialize_dynamic("example_interfaces/AddTwoIntsRequest", "int64 a\nint64 b\n")[
@@ -73,6 +75,11 @@ def main(role, endpoint):
         out(ready=zid)
         while not any(r.ok for r in s.liveliness().get("@ros2_lv/0/**/SS/**", timeout=1.0)):
             time.sleep(0.05)      # wait_for_service: the server's token (queryable declared first)
+        for r in s.get(skey, payload=b"\x00\x01\x00\x00\x02", attachment=att(40),
+                       target=zenoh.QueryTarget.ALL_COMPLETE,
+                       consolidation=zenoh.ConsolidationMode.NONE, timeout=10.0):
+            out(truncated_request_error=None if r.ok is not None else
+                str(r.err.payload.to_string()))          # 1 of AddTwoInts' 16 bytes
         for seq in (41, 42):
             for r in s.get(skey, payload=req({"a": seq, "b": 1}), attachment=att(seq),
                            target=zenoh.QueryTarget.ALL_COMPLETE,

@@ -233,8 +233,6 @@ class Context:
         pub._links = links
         pub._pairs = pairs
         pub._deliver = tuple(pairs.values())
-        if pub._remote is not None:         # the zenoh transport's put (other processes)
-            pub._deliver += (pub._remote,)
 
     # ----------------------------------------------------------------- modelled links
     def set_link(self, *, topic: str | None = None, publisher_node: str | None = None,

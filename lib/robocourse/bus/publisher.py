@@ -46,7 +46,7 @@ class Publisher:
         self._deliver = ()              # one delivery per matched subscription (tuple: fast)
         self._pairs = {}                # subscription -> its delivery (context._rewire)
         self._links = {}                # subscription -> LinkDelivery on a modelled link
-        self._remote = None             # the zenoh transport's sender, when there is one
+        self._remote = None             # the zenoh transport's sender (other processes), if any
         self._destroyed = False
         self.counts = _Counts()
         self.publish_count = 0
@@ -84,16 +84,21 @@ class Publisher:
         if self._slow:
             self._publish_slow(msg)
             return
-        # hot path: one copy per matched subscription (value semantics)
+        # hot path: one copy per matched subscription (value semantics); the wire gets the
+        # message itself: the transport encodes it before publish returns, a snapshot already
         copy = msg._copy
         for deliver in self._deliver:
             deliver(copy())
+        if self._remote is not None:
+            self._remote(msg)
 
     def _publish_slow(self, msg):
         """publish with lifespan, a TRANSIENT_LOCAL history or a deadline to keep."""
         copy = msg._copy
         if self._deadline is not None:
             self._deadline.sample(None)
+        if self._remote is not None:
+            self._remote(msg)
         if self._lifespan_ns is not None:
             expiry = self._clock._now_ns() + self._lifespan_ns
             if self._history is not None:

@@ -220,6 +220,7 @@ class ZenohTransport:
         self._local = {}                # entity -> _Local
         self.remote: dict[str, wire.Entity] = {}
         self.dropped_no_attachment = 0
+        self.dropped_undecodable = 0
         self.malformed_tokens: list[tuple[str, str]] = []
         self.mismatches: list[str] = []
         self._closed = False
@@ -270,8 +271,6 @@ class ZenohTransport:
                 self._drop(self._local.pop(ent))
                 if hasattr(ent, "_remote"):
                     ent._remote = None
-                    with self.ctx._lock:
-                        self.ctx._rewire(ent)
             for node in [n for n in self._nodes if n not in nodes]:
                 self._drop(self._nodes.pop(node))
 
@@ -300,8 +299,6 @@ class ZenohTransport:
         if kind == "MP":
             loc.zobj = self._declare_publisher(key, ent.qos_profile)
             ent._remote = self._sender(loc)
-            with self.ctx._lock:
-                self.ctx._rewire(ent)
         elif kind == "MS":
             loc.zobj = self._declare_subscriber(key, ent)
         elif kind == "SS":
@@ -336,17 +333,14 @@ class ZenohTransport:
                                               allowed_destination=z.Locality.REMOTE)
 
     def _sender(self, loc):
-        """The publisher's remote delivery: encoder, attachment packer, sequence counter and
-        ``put`` bound once, so a publish does no lookups."""
-        from robocourse.bus.publisher import _Expiring
-
-        put, seq, encode = loc.zobj.put, loc.seq, wire.encoder(loc.t)
-        attach, now = wire.attachment_packer(loc.gid), time.time_ns
+        """The publisher's remote delivery (``Publisher._remote``, given the published message
+        itself): encoder, attachment packer, sequence counter and ``put`` bound once, so a
+        publish does no lookups."""
+        put, seq, encode = loc.zobj.put, loc.seq, wire.encoder(loc.t, buffer=True)
+        pack, now, gid, n = wire.ATTACHMENT.pack, time.time_ns, loc.gid, wire.GID_SIZE
 
         def send(msg):
-            if type(msg) is _Expiring:
-                msg = msg.msg
-            put(encode(msg), attachment=attach(next(seq), now()))
+            put(encode(msg), attachment=pack(next(seq), now(), n, gid))
         return send
 
     def _declare_subscriber(self, key, sub):
@@ -373,19 +367,41 @@ class ZenohTransport:
 
     def _on_sample(self, sub):
         """The zenoh callback (a zenoh thread): validate the attachment, decode, queue for
-        the executor. Decoder and checks are bound once per subscription."""
-        decode, ok, node = wire.decoder(sub.msg_type), wire.attachment_ok, sub._node
+        the executor. Decoder and checks are bound once per subscription. A payload that does
+        not decode is dropped, counted in ``transport.dropped_undecodable`` and logged once per
+        subscription (rmw_zenoh logs a failed deserialization and takes nothing)."""
+        decode, node, size, gid = wire.decoder(sub.msg_type), sub._node, \
+            wire.ATTACHMENT_SIZE, wire.GID_SIZE
+        CdrError = wire.CdrError
+        warned = []
 
         def on_sample(sample):
             att = sample.attachment
-            if att is None or not ok(att.to_bytes()):
+            if att is not None:
+                att = att.to_bytes()
+            if att is None or len(att) != size or att[16] != gid:
                 self._dropped("sample", sub.topic_name, node)
                 return
+            try:
+                msg = decode(sample.payload.to_bytes())
+            except CdrError as exc:
+                self._undecodable(exc, sub, warned)
+                return
             if not sub._destroyed:
-                sub._deliver(decode(sample.payload.to_bytes()))
+                sub._deliver(msg)
         return on_sample
 
+    def _undecodable(self, exc, sub, warned):
+        self.dropped_undecodable += 1
+        if not warned:
+            warned.append(True)
+            sub._node.get_logger().warning(
+                f"sample on '{sub.topic_name}' dropped: {exc}. "
+                f"transport.dropped_undecodable counts them")
+
     def _on_query(self, srv, key):
+        warned = []
+
         def on_query(query):
             att = query.attachment
             try:
@@ -393,7 +409,18 @@ class ZenohTransport:
             except ValueError:
                 self._dropped("request", srv.srv_name, srv._node)
                 return
-            req = wire.from_cdr(srv.srv_type.Request, query.payload.to_bytes())
+            try:
+                req = wire.from_cdr(srv.srv_type.Request, query.payload.to_bytes())
+            except wire.CdrError as exc:
+                self.dropped_undecodable += 1
+                if not warned:
+                    warned.append(True)
+                    srv._node.get_logger().warning(
+                        f"request to service '{srv.srv_name}' refused: {exc}. "
+                        f"transport.dropped_undecodable counts them")
+                query.reply_err(f"request does not decode: {exc}".encode())
+                query.drop()
+                return
             srv._receive(req, _RemoteCaller(query, key, a), None)
         return on_query
 
@@ -440,8 +467,14 @@ class ZenohTransport:
             if a.sequence_number != seq:
                 return
             done.append(True)
-            client._respond(future, wire.from_cdr(client.srv_type.Response,
-                                                  reply.ok.payload.to_bytes()), None)
+            try:
+                response = wire.from_cdr(client.srv_type.Response, reply.ok.payload.to_bytes())
+            except wire.CdrError as exc:
+                self.dropped_undecodable += 1
+                client._respond(future, None, ServiceCallbackError(
+                    f"the response of service '{client.srv_name}' does not decode: {exc}"))
+                return
+            client._respond(future, response, None)
 
         def on_end():
             if done or self._closed:

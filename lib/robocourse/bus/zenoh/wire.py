@@ -5,8 +5,9 @@ tokens, name mangling, ``qos_to_keyexpr``), ``attachment_helpers.cpp`` (the 33-b
 attachment), ``type_support.cpp`` (CDR with its encapsulation header), and ros2/rosidl
 ``rosidl_generator_type_description`` (REP-2011 ``RIHS01_`` type hashes). Everything here is
 pure functions on bytes and strings, so it can be checked against the reference values
-without a network. The CDR codec is mcap-ros2-support's (the one ROS 2 bags use), fed with
-:func:`robocourse.msgs.full_definition`; no hand-written CDR.
+without a network. The CDR codec is rosbags' (``rosbags.serde``, the Python library for ROS
+bags: it compiles a (de)serializer per type), fed with our field specs; no hand-written CDR.
+The tests check its bytes against mcap-ros2-support's codec for every registered type.
 
 Differences from rmw_zenoh: none in the bytes. Humble's ``TypeHashNotSupported`` keys are
 not produced (we speak the Jazzy+ format, with the 2025 33-byte attachment).
@@ -29,14 +30,12 @@ from robocourse.bus.qos import (
     QoSProfile,
     ReliabilityPolicy,
 )
-from robocourse.msgs import definition_name, full_definition
 from robocourse.msgs._core import (
     REGISTRY,
     ServiceType,
     _has_ndarray,
     _require_type,
     _resolve,
-    _to_dict,
 )
 
 ADMIN_SPACE = "@ros2_lv"
@@ -339,7 +338,8 @@ def gid_of(key: str) -> bytes:
 
 
 # ---------------------------------------------------------------- attachment
-_ATT = struct.Struct("<qqB16s")
+#: the attachment's layout: int64 sequence number, int64 source timestamp, LEB128 16, GID
+ATTACHMENT = struct.Struct("<qqB16s")
 
 
 def encode_attachment(sequence_number: int, gid: bytes, source_timestamp_ns: int | None = None) -> bytes:
@@ -349,7 +349,7 @@ def encode_attachment(sequence_number: int, gid: bytes, source_timestamp_ns: int
         raise ValueError(f"gid has {len(gid)} bytes; a GID has {GID_SIZE}")
     if source_timestamp_ns is None:
         source_timestamp_ns = time.time_ns()
-    return _ATT.pack(sequence_number, source_timestamp_ns, GID_SIZE, bytes(gid))
+    return ATTACHMENT.pack(sequence_number, source_timestamp_ns, GID_SIZE, bytes(gid))
 
 
 @dataclass(frozen=True)
@@ -370,7 +370,7 @@ def attachment_packer(gid: bytes):
     with the GID checked and bound once (a publisher's GID never changes)."""
     if len(gid) != GID_SIZE:
         raise ValueError(f"gid has {len(gid)} bytes; a GID has {GID_SIZE}")
-    pack, gid = _ATT.pack, bytes(gid)
+    pack, gid = ATTACHMENT.pack, bytes(gid)
     return lambda seq, ts: pack(seq, ts, GID_SIZE, gid)
 
 
@@ -381,68 +381,172 @@ def decode_attachment(data: bytes) -> Attachment:
     if len(data) != ATTACHMENT_SIZE or data[16] != GID_SIZE:
         raise ValueError(f"attachment of {len(data)} bytes is not rmw_zenoh's 33-byte form "
                          f"(int64 seq, int64 timestamp, 0x10, 16-byte gid)")
-    seq, ts, _, gid = _ATT.unpack(data)
+    seq, ts, _, gid = ATTACHMENT.unpack(data)
     return Attachment(seq, ts, gid)
 
 
 # ---------------------------------------------------------------- CDR payload
+# rosbags' CDR codec (rosbags.serde): per type it compiles straight-line Python that packs and
+# unpacks the fields with struct, alignment worked out once. Our message classes are registered
+# as its classes, so decoding calls our generated constructor (rclpy's field checks) directly.
+_BASE, _NAME, _ARRAY, _SEQUENCE = 1, 2, 3, 4         # rosbags.interfaces.Nodetype
+#: the member rosidl adds to an empty structure (one uint8 0 on the wire)
+_EMPTY_MEMBER = "structure_needs_at_least_one_member"
+
+
+class CdrError(ValueError):
+    """A payload that is not a valid CDR encoding of the expected type."""
+
+
 @functools.cache
-def _codec(t):
-    from mcap_ros2._dynamic import generate_dynamic, serialize_dynamic
+def _store():
+    from rosbags.typesys.store import Typestore
 
-    schema = definition_name(t._type)
-    text = full_definition(t)
-    return serialize_dynamic(schema, text)[schema], generate_dynamic(schema, text)[schema]
+    return Typestore()
+
+
+def _field_desc(spec, owner):
+    if spec.is_primitive:
+        if spec.base_type == "wstring":
+            raise TypeError(f"{owner}.{spec.name}: wstring fields cannot be carried by the zenoh "
+                            f"transport (the CDR codec, rosbags, has no wstring); use string")
+        bound = int(spec.string_bound[2:]) if spec.string_bound else 0
+        # byte and char are one octet 0..255 in ROS 2 (rosbags' byte is signed, ROS 1's int8)
+        base = "uint8" if spec.base_type in ("byte", "char") else spec.base_type
+        desc = (_BASE, (base, bound))
+    else:
+        desc = (_NAME, _resolve(spec.base_type)._type)
+    if not spec.is_array:
+        return desc
+    if spec.array_size is not None and not spec.is_bounded:
+        return (_ARRAY, (desc, spec.array_size))
+    return (_SEQUENCE, (desc, spec.array_size or 0))
+
+
+def _register(t) -> None:
+    """Register ``t`` and every type it nests in the codec's store, ``t`` itself as the class
+    rosbags builds (empty types keep rosbags' own class with rosidl's placeholder member)."""
+    store = _store()
+    if t._type in store.fielddefs:
+        return
+    fields = []
+    for spec in t._fields:
+        if not spec.is_primitive:
+            _register(_resolve(spec.base_type))
+        fields.append((spec.name, _field_desc(spec, t._type)))
+    if not fields:
+        store.register({t._type: ([], [(_EMPTY_MEMBER, (_BASE, ("uint8", 0)))])})
+        return
+    store.register({t._type: ([], fields)})
+    store.types[t._type] = t
 
 
 @functools.cache
-def encoder(t):
-    """``encode(msg) -> bytes`` for messages of type ``t``: :func:`to_cdr` with the codec
-    and the wire-view decision looked up once (a publisher's hot path)."""
-    enc = _codec(t)[0]
-    if _has_ndarray(t):
-        return lambda msg: bytes(enc(_to_dict(msg)))
-    return lambda msg: bytes(enc(msg))
+def _msgdef(t):
+    _require_type(t, "CDR codec")
+    _register(t)
+    return _store().get_msgdef(t._type)
+
+
+@functools.cache
+def _wire_viewer(t):
+    """None when rosbags' serializer takes ``t``'s messages as they are, else
+    ``view(msg) -> object`` with the same fields where rosbags needs numpy: numeric
+    sequences (``array.array`` -> a zero-copy ``numpy.frombuffer``), bool arrays (lists),
+    fixed numeric arrays made contiguous; nested messages viewed in turn."""
+    import types
+
+    import numpy as np
+
+    from robocourse.msgs._fields import _NUMPY
+
+    parts, needed = [], False
+    for spec in t._fields:
+        conv = None
+        if spec.is_primitive and spec.is_array and spec.base_type == "bool":
+            conv = lambda v: np.array(v, dtype=np.bool_)                     # noqa: E731
+        elif spec.is_primitive and spec.is_array and spec.base_type in _NUMPY:
+            dtype = np.dtype(_NUMPY[spec.base_type])
+            if spec.is_fixed_array:
+                conv = np.ascontiguousarray
+            else:
+                conv = lambda v, d=dtype: np.frombuffer(v, dtype=d)          # noqa: E731
+        elif not spec.is_primitive:
+            sub = _wire_viewer(_resolve(spec.base_type))
+            if sub is not None:
+                conv = (lambda v, sub=sub: [sub(x) for x in v]) if spec.is_array else sub
+        needed = needed or conv is not None
+        parts.append((spec.name, conv))
+    if not needed:
+        return None
+    parts = tuple(parts)
+    space = types.SimpleNamespace
+
+    def view(msg):
+        kw = {}
+        for name, conv in parts:
+            v = getattr(msg, name)
+            kw[name] = v if conv is None else conv(v)
+        return space(**kw)
+    return view
+
+
+@functools.cache
+def encoder(t, buffer: bool = False):
+    """``encode(msg) -> bytes`` for messages of type ``t``, little-endian with the encapsulation
+    header (a publisher's hot path: rosbags' generated functions bound once). ``buffer=True``
+    returns the ``bytearray`` it filled (what zenoh's ``put`` takes) instead of a bytes copy."""
+    md, store = _msgdef(t), _store()
+    if not t._fields:
+        data = bytes(store.serialize_cdr(md.cls(0), t._type, little_endian=True))
+        return lambda msg: data
+    size, getsize, ser = md.size_cdr, md.getsize_cdr, md.serialize_cdr_le
+    view = _wire_viewer(t)
+
+    def encode(msg):
+        raw = bytearray(4 + (size or getsize(0, msg, store)))
+        raw[1] = 1                                  # 00 01 00 00: CDR, little-endian
+        ser(memoryview(raw)[4:], 0, msg, store)
+        return raw
+    if view is not None:
+        plain = encode
+        encode = lambda msg: plain(view(msg))                            # noqa: E731
+    if buffer:
+        return encode
+    return lambda msg: bytes(encode(msg))
 
 
 @functools.cache
 def decoder(t):
-    """``decode(data) -> message of type t``: :func:`from_cdr` with the codec looked up once
-    (a subscription's hot path). The message is built by its constructor (the same checks as
-    :func:`~robocourse.msgs.from_dict`, in the generated ``__init__``, 4x faster)."""
-    dec, build = _codec(t)[1], _builder(t)
-    return lambda data: build(dec(data))
+    """``decode(data) -> message of type t`` (a subscription's hot path). Either byte order;
+    ``CdrError`` naming the type for anything that is not ``t`` in CDR. The message is built
+    by its own constructor (the same checks as any ``t(...)``); its arrays own their memory."""
+    md, store = _msgdef(t), _store()
+    le, be, cls = md.deserialize_cdr_le, md.deserialize_cdr_be, md.cls
+    if not t._fields:
+        finish = lambda msg: t()                                           # noqa: E731
+    elif _has_ndarray(t):     # fixed numeric arrays are read-only views of the payload
+        finish = t._copy
+    else:
+        finish = None
 
-
-_BYTE_SCALARS = ("byte", "uint8", "char")
-
-
-def _byte_scalar(v):
-    return v[0] if isinstance(v, (bytes, bytearray)) else v
-
-
-@functools.cache
-def _builder(t):
-    """``build(decoded) -> t(**fields)`` for mcap_ros2's decoded objects, nested types and
-    sequences of them built in turn (what ``from_dict`` does field by field)."""
-    parts = []
-    for spec in t._fields:
-        if spec.is_primitive:
-            conv = _byte_scalar if not spec.is_array and spec.base_type in _BYTE_SCALARS \
-                else None
-        else:
-            sub = _builder(_resolve(spec.base_type))
-            conv = (lambda v, sub=sub: [sub(x) for x in v]) if spec.is_array else sub
-        parts.append((spec.name, conv))
-    parts = tuple(parts)
-
-    def build(d):
-        kw = {}
-        for name, conv in parts:
-            v = getattr(d, name)
-            kw[name] = v if conv is None else conv(v)
-        return t(**kw)
-    return build
+    def decode(data):
+        try:
+            if len(data) < 4 or data[0]:
+                raise CdrError(f"{t._type}: payload starts {bytes(data[:4]).hex(' ')}, not a "
+                               f"CDR encapsulation header (00 01 00 00 little-endian or 00 00 "
+                               f"00 00 big-endian)")
+            msg, pos = (le if data[1] else be)(data[4:], 0, cls, store)
+        except CdrError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - rosbags' SerdeError, struct.error, our checks
+            raise CdrError(f"{t._type}: the {len(data)}-byte payload does not decode: "
+                           f"{type(exc).__name__}: {exc}") from None
+        if pos + 7 < len(data):     # CDR pads to 4 bytes at most (rosbags checks the same)
+            raise CdrError(f"{t._type}: {len(data) - 4 - pos} bytes left over after the "
+                           f"message: the sender uses another definition of the type")
+        return msg if finish is None else finish(msg)
+    return decode
 
 
 def to_cdr(msg) -> bytes:
@@ -451,6 +555,7 @@ def to_cdr(msg) -> bytes:
 
 
 def from_cdr(t, data: bytes):
-    """CDR bytes -> a message of type ``t`` (checked like a constructor call)."""
+    """CDR bytes -> a message of type ``t`` (checked like a constructor call); ``CdrError``
+    for a payload that is not ``t`` in CDR."""
     _require_type(t, "from_cdr")
     return decoder(t)(bytes(data))
