@@ -38,78 +38,76 @@ back, so load hits them alike): robocourse/zenoh over raw zenoh (the goal is p50
 split into the hand-off's share (raw + hand-off / raw) and robocourse's layers' share
 (robocourse / raw + hand-off). The machine is shared: only same-run ratios compare.
 
-Example output of one run (``--repeats 5 --n 500 --flood 2000 --seconds 3``, 2026-11 branch
-s3-zperf, a shared 2-core box under other engineers' load; one run's figures, not a
+Example output of one run (``--repeats 5 --n 500 --flood 2000 --seconds 3``, 2026-11-26,
+main after the rosbags codec, the 2-core box otherwise idle; one run's figures, not a
 specification):
 
     round trip (publish -> echo in the other process -> back), microseconds; median [min..max] over repeats
     payload  path                                 p50 us                     p99 us                     msgs/s
-    small (29 B) in-process bus               6.2 [6.1..6.2]            7.9 [6.6..12.6] 152,212 [142,978..154,410]
-    small (29 B) robocourse/zenoh       317.4 [312.3..334.0]       390.0 [381.3..486.5]    45,025 [40,022..62,223]
-    small (29 B) raw + hand-off         210.0 [185.4..219.0]       274.5 [262.3..310.7] 273,951 [266,896..295,779]
-    small (29 B) raw zenoh              181.0 [173.7..191.5]       240.5 [232.0..276.5] 297,969 [181,961..332,125]
-      small: robocourse/zenoh p50 = 1.74x [1.66..1.92] raw zenoh (median of per-repeat ratios [min..max]; goal <= 1.5x: NOT met)
-        = 1.16x [1.07..1.21] for the two thread hand-offs alone (raw + hand-off / raw) x 1.49x [1.44..1.80] for robocourse's layers (robocourse / raw + hand-off); 51.3x the in-process bus; throughput 0.16x [0.15..0.27] raw zenoh
-    1 kB (1021 B) in-process bus               6.2 [6.2..6.2]             7.7 [6.7..9.2] 151,769 [148,921..152,780]
-    1 kB (1021 B) robocourse/zenoh       323.2 [294.5..345.2]       411.4 [383.5..451.1]    55,867 [36,366..59,258]
-    1 kB (1021 B) raw + hand-off         209.0 [203.3..211.3]       274.8 [269.5..276.0] 214,846 [212,694..239,282]
-    1 kB (1021 B) raw zenoh              180.7 [171.7..185.2]       236.2 [227.7..264.3] 282,392 [214,712..322,860]
-      1 kB: robocourse/zenoh p50 = 1.76x [1.61..2.01] raw zenoh (median of per-repeat ratios [min..max]; goal <= 1.5x: NOT met)
-        = 1.15x [1.10..1.22] for the two thread hand-offs alone (raw + hand-off / raw) x 1.53x [1.41..1.64] for robocourse's layers (robocourse / raw + hand-off); 52.3x the in-process bus; throughput 0.21x [0.13..0.25] raw zenoh
+    small (29 B) in-process bus               6.2 [6.2..6.2]            7.5 [6.9..11.2] 151,520 [150,544..153,302]
+    small (29 B) robocourse/zenoh       280.7 [278.4..285.0]       351.3 [345.3..368.2]    68,662 [65,611..71,043]
+    small (29 B) raw + hand-off         203.7 [199.0..211.5]       269.5 [260.4..275.5] 262,722 [242,719..313,133]
+    small (29 B) raw zenoh              189.7 [186.5..193.1]       246.9 [236.4..249.2] 239,192 [172,872..386,580]
+      small: robocourse/zenoh p50 = 1.48x [1.47..1.53] raw zenoh (median of per-repeat ratios [min..max]; goal <= 1.5x: met)
+        = 1.08x [1.05..1.11] for the two thread hand-offs alone (raw + hand-off / raw) x 1.38x [1.33..1.43] for robocourse's layers (robocourse / raw + hand-off); 45.4x the in-process bus; throughput 0.29x [0.18..0.40] raw zenoh
+    1 kB (1021 B) in-process bus               6.2 [6.2..6.2]            7.2 [7.1..10.7] 151,636 [146,126..152,764]
+    1 kB (1021 B) robocourse/zenoh       287.2 [263.3..292.0]       359.3 [336.3..365.5]    69,564 [65,986..83,476]
+    1 kB (1021 B) raw + hand-off         207.4 [205.2..215.8]       276.7 [266.5..295.7] 209,674 [194,719..245,761]
+    1 kB (1021 B) raw zenoh              186.3 [178.5..188.2]       247.1 [230.7..248.2] 272,495 [211,006..295,183]
+      1 kB: robocourse/zenoh p50 = 1.55x [1.41..1.63] raw zenoh (median of per-repeat ratios [min..max]; goal <= 1.5x: NOT met)
+        = 1.12x [1.09..1.18] for the two thread hand-offs alone (raw + hand-off / raw) x 1.38x [1.28..1.40] for robocourse's layers (robocourse / raw + hand-off); 46.4x the in-process bus; throughput 0.25x [0.24..0.40] raw zenoh
 
     pendulum graph at 1 kHz for 3 s: late = one-way latency > 1 ms or lost (sensor + command messages); median [min..max] over repeats
     graph                          late %            sensor p50 us              sensor p99 us             command p99 us  messages
-    one process            0.0 [0.0..0.0]           5.9 [5.7..6.2]          18.2 [13.0..25.0]          19.7 [15.1..30.7]      6208
-    two processes          0.2 [0.1..0.3]     200.0 [172.5..204.7]       383.3 [295.3..401.3]       377.9 [302.4..399.8]      6217
-      two processes: 0.21 % late (goal < 1 %: met)
+    one process            0.0 [0.0..0.0]           5.9 [5.8..7.7]          20.2 [18.3..23.2]          25.0 [19.0..26.6]      6217
+    two processes          0.1 [0.1..0.2]     161.8 [154.3..172.5]       319.0 [272.8..350.6]       308.3 [279.2..353.7]      6217
+      two processes: 0.12 % late (goal < 1 %: met)
 
     stages of one hop in the echo process (small String, 2000 round trips), p50 us
-      zenoh callback: attachment access + check        3.6
-      payload to bytes                                 0.6
-      mcap_ros2 CDR decode                             9.8
-      build the message (field checks)                 3.0
-      queue + wake the executor                        8.6
-      executor thread wakes, takes the message        12.6
-      callback -> publish -> sender                    2.6
-      mcap_ros2 CDR encode                            11.4
-      attachment                                       1.0
-      zenoh put call                                  19.6
-      whole hop: zenoh callback -> put returns        81.2
-      zenoh: client put -> echo callback             106.7
-      zenoh: echo put -> client callback              99.4
-      round trip (client publish -> callback)        325.4
+      zenoh callback: attachment access + check        3.3
+      payload to bytes                                 0.5
+      CDR decode into the message (field checks)       6.5
+      queue + wake the executor                        7.8
+      executor thread wakes, takes the message        12.0
+      callback -> publish -> sender                    2.2
+      CDR encode                                       4.8
+      attachment                                       1.1
+      zenoh put call                                  20.1
+      whole hop: zenoh callback -> put returns        70.3
+      zenoh: client put -> echo callback             105.7
+      zenoh: echo put -> client callback             102.1
+      round trip (client publish -> callback)        291.3
 
-(the stage table is a separate ``--stages --n 2000`` run, same day; its stamps add ~0.2 us
+(the stage table is a separate ``--stages --n 2000`` run, same hour; its stamps add ~0.2 us
 each, and medians of stages do not add up to the median of the whole hop.)
 
-The goal (robocourse within 1.5x of raw zenoh's p50) is NOT met: 1.74x (small) and 1.76x
-(1 kB) in that run; meeting it there would need the round trip at 271 us instead of 317, i.e.
-~46 us less. Where robocourse's ~136 us over raw zenoh go (small: 317.4 - 181.0), from the
-two runs above:
+The goal (robocourse within 1.5x of raw zenoh's p50) is on the edge, not met reliably: in
+that run 1.48x (small) and 1.55x (1 kB); a second run the same hour gave 1.57x and 1.57x,
+and quick runs (``--quick``) range 1.49x..1.64x. Before this round (mcap_ros2's codec) it was
+1.74x / 1.76x. What robocourse adds per hop, from the stages (cold caches: a ping-pong path
+runs every Python step at 4-6x its warm time):
 
-- the two thread hand-offs, ~29 us (raw + hand-off - raw: 210.0 - 181.0). In robocourse they
-  are "queue + wake" and "executor thread wakes", 8.6 + 12.6 us per hop, ~42 us per round
-  trip, so the executor's wake path costs ~13 us per round trip more than a bare lock
-  hand-off. rclpy's rule that callbacks run on the spinning thread needs the hand-off.
-- mcap_ros2's CDR codec, ~48 us per round trip (decode 9.8 + build 3.0 + encode 11.4 per
-  hop, x 2). In a warm loop the same decode takes 1.5 us and the encode 2.4 us: the
-  ping-pong path runs with cold caches, so every Python step costs 4-6x its warm time.
-- rmw_zenoh's attachment, ~9 us per round trip in Python (3.6 + 1.0 per hop) plus carrying
-  33 more bytes per sample in zenoh (the zenoh legs, 106.7 / 99.4 us one way, include it).
-- the publish layers (callback -> publish -> sender), ~5 us per round trip.
+- the CDR codec, decode 6.5 + encode 4.8 us (rosbags' generated code; mcap_ros2's took
+  9.8 + 3.0 + 11.4 us). A hand-written struct codec for String decodes in ~3.6 us cold and,
+  patched in for an experiment (before this round's other changes), gave 1.45x: the rest of
+  the gap is codec time, but the course uses a well-kept CDR library, not a hand-written
+  codec.
+- rmw_zenoh's 33-byte attachment: 3.3 us to read and check, 1.1 us to pack, plus carrying it
+  in zenoh (a raw echo with an attachment measured ~10-20 us slower per round trip).
+- the hand-off to the spinning thread (rclpy's rule that callbacks run there): 7.8 + 12.0 us;
+  an offline test of the same hand-off with cold caches puts robocourse's executor within
+  ~1.3 us of a bare lock hand-off, so what is left there is the thread wake itself.
+- the publish layers (callback -> publish -> sender), 2.2 us.
+- zenoh's put takes ~20 us in a ping-pong for robocourse and raw zenoh alike (its runtime
+  threads have gone idle between messages); in a flood it takes ~1 us.
 
-This round changed no hot path: the two candidates measured did not pay off. (1) Running
-the transport's sample callback directly in zenoh's network thread
-(``handlers.Callback(..., indirect=False)``, removing zenoh-python's own Python-thread hop;
-user callbacks would still run on the executor) was slower in a quick run (p50 2.93x raw
-vs 1.86x in the run before it, throughput halved): the network thread has to take the GIL
-for every sample. (2) Handing the zenoh sender the publisher's message instead of a copy
-(the CDR bytes are the snapshot) made no measurable difference (interleaved quick runs,
-small p50 324.8 / 314.8 us before vs 332.9 / 331.4 us after): a String copy is ~0.15 us.
-What could reach the goal is the codec: a code-generating CDR library (e.g. rosbags' serde)
-instead of mcap_ros2's interpreted one is the next thing to try; it is a new dependency, so
-not done here. Throughput is limited by the same per-message Python work (~0.2x raw
-zenoh). The pendulum split holds its goal (< 1 % late).
+Measured and not kept: running the transport's sample callback in zenoh's network thread
+(``handlers.Callback(..., indirect=False)``, so the network thread hands the raw sample
+straight to the executor, as rmw_zenoh's callback does): 1.50x..1.57x in quick runs, no
+better than the indirect path within the noise, and throughput halved (the network thread
+waits for the GIL while the executor runs). Waking the executor before decoding (so its
+wake-up overlaps the decode): no gain. Disabling zenoh timestamping (rmw_zenoh enables it)
+or ``allowed_destination``: no difference.
 
 Stages (``--stages [--n 2000]``): one robocourse ping-pong with timing probes in both
 processes (``perf_counter_ns``, CLOCK_MONOTONIC, so stamps compare across processes on one
