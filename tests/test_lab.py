@@ -274,10 +274,16 @@ def browser(tmp_path):
                              "--remote-debugging-port=0", "--remote-allow-origins=*", "about:blank"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     try:
-        port_file, deadline = profile / "DevToolsActivePort", time.monotonic() + 60
-        while not port_file.exists() and time.monotonic() < deadline and proc.poll() is None:
+        # Chromium creates DevToolsActivePort and then writes "<port>\n<path>": wait for the
+        # port line, not only the file (reading between the two gave an empty file once)
+        port_file, deadline, text = profile / "DevToolsActivePort", time.monotonic() + 60, ""
+        while time.monotonic() < deadline and proc.poll() is None:
+            text = port_file.read_text() if port_file.exists() else ""
+            if "\n" in text:
+                break
             time.sleep(0.1)
-        port = int(port_file.read_text().split()[0])
+        assert "\n" in text, f"Chromium wrote no debugging port within 60 s (exit code {proc.poll()})"
+        port = int(text.split()[0])
         targets = json.loads(urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=10).read())
         page = Page(next(t for t in targets if t["type"] == "page")["webSocketDebuggerUrl"])
         page.call("Emulation.setDeviceMetricsOverride", width=WIDTH, height=HEIGHT, deviceScaleFactor=1, mobile=False)
