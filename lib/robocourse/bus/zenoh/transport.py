@@ -385,19 +385,18 @@ class ZenohTransport:
             try:
                 msg = decode(sample.payload.to_bytes())
             except CdrError as exc:
-                self._undecodable(exc, sub, warned)
+                self._undecodable(sub._node, f"sample on '{sub.topic_name}' dropped", exc, warned)
                 return
             if not sub._destroyed:
                 sub._deliver(msg)
         return on_sample
 
-    def _undecodable(self, exc, sub, warned):
+    def _undecodable(self, node, what, exc, warned):
+        """Count a payload that does not decode; warn once per endpoint (``warned``)."""
         self.dropped_undecodable += 1
         if not warned:
             warned.append(True)
-            sub._node.get_logger().warning(
-                f"sample on '{sub.topic_name}' dropped: {exc}. "
-                f"transport.dropped_undecodable counts them")
+            node.get_logger().warning(f"{what}: {exc}. transport.dropped_undecodable counts them")
 
     def _on_query(self, srv, key):
         warned = []
@@ -412,12 +411,8 @@ class ZenohTransport:
             try:
                 req = wire.from_cdr(srv.srv_type.Request, query.payload.to_bytes())
             except wire.CdrError as exc:
-                self.dropped_undecodable += 1
-                if not warned:
-                    warned.append(True)
-                    srv._node.get_logger().warning(
-                        f"request to service '{srv.srv_name}' refused: {exc}. "
-                        f"transport.dropped_undecodable counts them")
+                self._undecodable(srv._node, f"request to service '{srv.srv_name}' refused",
+                                  exc, warned)
                 query.reply_err(f"request does not decode: {exc}".encode())
                 query.drop()
                 return
