@@ -22,6 +22,10 @@ the in-process fast path (the zenoh subscriber only takes samples from other ses
 Counterparts and differences:
 - Samples or queries without a valid attachment are dropped and counted
   (``transport.dropped_no_attachment``), as rmw_zenoh's subscriptions drop them.
+- A payload that is not the expected type in CDR (truncated, another definition, a broken
+  bound) is dropped and counted (``transport.dropped_undecodable``) with one warning per
+  endpoint, as rmw_zenoh logs a failed deserialization; a request gets an error reply, a
+  response fails the client's future with the reason.
 - A remote endpoint on one of our names with another type or type hash never communicates
   (the key differs, as in rmw_zenoh); unlike rmw_zenoh we log a warning saying why and keep
   it in ``transport.mismatches``.
