@@ -534,16 +534,6 @@ class SingleThreadedExecutor(Executor):
         except RuntimeError:        # already signalled (not yet consumed): nothing to add
             pass
 
-    def _schedule(self, ent) -> None:
-        # Executor._schedule with the wake-up inlined: the zenoh transport's receive path
-        ent._scheduled = True
-        self._ready.append(ent)
-        if self._sleeping:
-            try:
-                self._signal.release()
-            except RuntimeError:
-                pass
-
 
 class MultiThreadedExecutor(Executor):
     """rclpy.executors.MultiThreadedExecutor(num_threads): a thread pool runs callbacks.

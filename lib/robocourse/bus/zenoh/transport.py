@@ -389,7 +389,7 @@ class ZenohTransport:
             try:
                 msg = decode(sample.payload.to_bytes())
             except CdrError as exc:
-                self._undecodable(sub._node, f"sample on '{sub.topic_name}' dropped", exc, warned)
+                self._undecodable(node, f"sample on '{sub.topic_name}' dropped", exc, warned)
                 return
             if not sub._destroyed:
                 sub._deliver(msg)
