@@ -192,5 +192,7 @@ def load_runtime(path, io_binding: bool = True) -> PolicyRuntime:
     if path.suffix == ".onnx":
         return OnnxRuntime(path, io_binding=io_binding)
     if path.suffix == ".npz":
-        return NumpyRuntime(MLPPolicy.load(path))
+        rt = NumpyRuntime(MLPPolicy.load(path))
+        rt.path = path
+        return rt
     raise ValueError(f"{path.name}: unknown policy file type {path.suffix!r}; use .onnx or .npz")
