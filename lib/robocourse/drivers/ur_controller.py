@@ -165,6 +165,11 @@ class URController:
         self.exec_time_ms = 0.0
         self._cache: dict = {}
         sim = getattr(arm, "sim", None)
+        # the joint servos get the reference velocity too: cmd = q_ref + kd/kp qd_ref makes MuJoCo's
+        # kp (q_cmd - q) - kd qd a PD on both position and velocity errors, so the arm tracks target_q
+        # within milliradians while it moves, as a UR's joint controllers do (without it, kd/kp = 0.1 s of lag)
+        self._vel_ff = (np.array([sim.gains[j].kd / sim.gains[j].kp for j in sim.joint_names[:6]])
+                        if sim is not None else np.zeros(6))
         if sim is not None:
             self._tool_body, self._elbow_body = sim.model.body("tool0").id, sim.model.body("forearm_link").id
             self._jacp, self._jacr = np.zeros((3, sim.model.nv)), np.zeros((3, sim.model.nv))
@@ -481,7 +486,8 @@ class URController:
         m.scaling = self.slider if self.runtime_state == RUNTIME_PLAYING else 1.0
         if self.robot_mode == ROBOT_MODE_RUNNING:
             m.tick()
-            self.arm.cmd[:] = m.q
+            np.multiply(m.qd, self._vel_ff, out=self.arm.cmd)
+            self.arm.cmd += m.q
         else:
             self.arm.cmd[:] = m.q                # brakes: hold where the reference stopped
         self.arm.step(2)
