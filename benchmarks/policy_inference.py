@@ -18,7 +18,7 @@ in a thread of the same process, in a process of its own; for the shipped reach 
 for the same policy computed by a 2048-2048 ReLU network (``rl.policy.widened``: same
 actions, about a third of the period per inference). ``robocourse.rt.repeat.measure_rounds``
 runs every row once per round in alternating order; cells are median [lowest-highest] over
-the rounds; the sentences below the table are ``compare_sentence``'s verdicts against the
+the rounds; the sentences below the table are ``Repeated.claim``'s verdicts against the
 baseline of the same run. ``--load`` runs everything under chapter 1's CPU load (two busy
 processes pinned to one CPU).
 
@@ -140,7 +140,7 @@ def deployment_loop(seconds: float, repeats: int, wide: bool = True) -> None:
     from robocourse.rl import shipped
     from robocourse.rl.deployment import PolicyDeployment
     from robocourse.rl.policy import widened
-    from robocourse.rt.repeat import compare_sentence, measure_rounds
+    from robocourse.rt.repeat import measure_rounds
 
     policy = shipped.load()
     cfg = shipped.env_config(policy)
@@ -177,9 +177,9 @@ def deployment_loop(seconds: float, repeats: int, wide: bool = True) -> None:
     for name in rows:
         if name != "no policy (baseline)":
             for metric in ("p99", "overruns"):
-                print(" -", compare_sentence(rep, name, "no policy (baseline)", metric,
-                                             scale=1e-3 if metric == "p99" else 1.0, unit="us" if metric == "p99" else "",
-                                             digits=1 if metric == "p99" else 0))
+                c = rep.claim(name, "no policy (baseline)", metric, scale=1e-3 if metric == "p99" else 1.0,
+                              unit="us" if metric == "p99" else "", digits=1 if metric == "p99" else 0)
+                print(" -", c.text.replace("**", ""))
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
     tmp.cleanup()
 

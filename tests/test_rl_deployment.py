@@ -1,6 +1,9 @@
 """The CRISP deployment under ros2_control: start-up sequence, reaching, safe mode when the brain dies,
 exit damping, clipping counted, bad observations and actions survived."""
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -220,13 +223,15 @@ def test_shared_latest_value_try_calls_never_wait_for_the_lock():
         out = np.zeros(2)
         assert sv.try_read_into(out) == (1, 3.0) and out.tolist() == [1.0, 2.0]
         other = SharedLatestValue.attach(sv.spec())
-        with sv.lock:                                     # the other side is mid-copy
+        with sv.locked():                                 # the other side is mid-copy
             assert other.try_read_into(out) is None and other.try_write([5.0, 5.0], 4.0) == 0
         assert other.try_write([5.0, 6.0], 4.0) == 2
         assert sv.read_into(out) == (2, 4.0) and out.tolist() == [5.0, 6.0]
         other.close()
+        assert SharedLatestValue.attach(json.loads(json.dumps(sv.spec()))).read()[1] == 2   # plain data travels
     finally:
         sv.close()
+    assert not Path(sv.lock_path).exists()
 
 
 def test_widened_policy_gives_the_same_actions_at_a_bigger_cost():

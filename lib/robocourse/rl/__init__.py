@@ -30,7 +30,8 @@ _WHERE = {
     "MLPPolicy": "policy", "Normalizer": "policy", "RunningNormalizer": "policy",
     "ActionProcessor": "postprocess", "ema_alpha": "postprocess",
     "NumpyRuntime": "runtime", "OnnxRuntime": "runtime", "PolicyRuntime": "runtime", "TorchRuntime": "runtime",
-    "load_runtime": "runtime", "torch_available": "runtime",
+    "load_runtime": "runtime", "torch_available": "runtime", "RecordingRuntime": "runtime",
+    "read_call_log": "runtime",
     "LatestValue": "handover", "SharedLatestValue": "handover",
     "PolicyDeployment": "deployment",
 }
