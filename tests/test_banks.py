@@ -99,6 +99,7 @@ def test_ported_checks_declare_schemas_and_keep_their_judges_out_of_the_sandbox(
 
 
 @pytest.mark.slow
+@pytest.mark.serial
 def test_timing_sensitive_answers_keep_their_verdict_under_load():
     """Exercises marked timing=True: three more runs with chapter 1's CPU load (2 busy processes)."""
     from robocourse.rt.disturb import CpuLoad
