@@ -52,23 +52,14 @@ def _heap_cap(requested: int) -> tuple[int, str]:
 def run_rttest(args) -> int:
     from robocourse.rt import settings
     from robocourse.rt.loop import PeriodicLoop, _faults
-    from robocourse.rt.options import USAGE, RttestUsageError, parse_rttest_args
+    from robocourse.rt.options import RttestUsageError, parse_rttest_args
     from robocourse.rt.wait import strategy
 
     argv = list(args.rttest_args)
     if any(a in ("-h", "--help") for a in argv):
-        print(USAGE)
-        print("  -i N      iterations (default 1000; <= 0 runs until Ctrl-C and keeps no samples file)")
-        print("  -u T      period, ns/us/ms/s (bare number = us; default 1ms)")
-        print("  -t P      real-time priority 1..98 (default 80)")
-        print("  -s POL    fifo or rr (default rr)")
-        print("  -m S      stack prefault, gb/mb/kb/b (bare number = MB; default 1mb)")
-        print("  -d S      heap prefault cap, same units (rttest: 8gb; robocourse uses 64mb unless -d is given;")
-        print("            never more than a quarter of MemAvailable)")
-        print("  -f FILE   write rttest's results file")
-        print("  --wait W  sleep (default: rttest's clock_nanosleep), hybrid (sleep, then spin the last --spin)")
-        print("            or spin (busy-wait: a whole core); --spin T spin window of hybrid (default 200us)")
-        print("  --cpu N   pin the loop to CPU N")
+        from robocourse.rt.options import help_text
+
+        print(help_text("robocourse rttest"))
         return 0
     try:
         opts = parse_rttest_args(argv)
