@@ -287,7 +287,10 @@ class RobotSim:
         if np.any(half <= 0) or not 0 < obj.mass < 100:
             raise ValueError(f"{obj!r}: half_size must be > 0 and mass in (0, 100) kg")
         m, (a, b, c) = float(obj.mass), 2 * half  # the URDF turns inertiafromgeom off: give it here
-        body = spec.worldbody.add_body(name="object", pos=pos, mass=m,
+        # ipos/iquat explicitly: left unset (MjSpec's NaN "unspecified"), the compiled centre of mass
+        # landed at twice ``pos`` from the origin, and the box hopped and spun on a table by itself
+        body = spec.worldbody.add_body(name="object", pos=pos, mass=m, ipos=[0.0, 0.0, 0.0], iquat=[1.0, 0.0, 0.0, 0.0],
+                                       explicitinertial=True,
                                        inertia=[m * (b * b + c * c) / 12, m * (a * a + c * c) / 12, m * (a * a + b * b) / 12])
         body.add_freejoint(name="object")
         body.add_geom(name="object", type=mujoco.mjtGeom.mjGEOM_BOX, size=half,
