@@ -672,3 +672,665 @@ def check_admittance(inputs, outputs):
             f.add(f"it takes {settled:.2f} s to settle within 2 % (allowed {c['settle']:.2f} s) {where}: "
                   f"damping_ratio {zeta:g} is more damping than needed; 1 settles fastest without overshoot")
     return f.done(f"{len(inputs)} tunings yield the asked deflection, without overshoot, in time")
+
+
+# --- shared by the controller exercises: a mock arm, a recorder, the allocation probe ------------------------------
+
+
+def generic_urdf(initial: dict, name: str = "Arm") -> str:
+    """A serial arm on ``mock_components/GenericSystem``: per joint a position command (NaN until written)
+    and position (``initial[joint]``) + velocity states."""
+    joints = list(initial)
+    links = "".join(f'<link name="link{i}"/>' for i in range(len(joints) + 1))
+    js = "".join(f'<joint name="{j}" type="revolute"><parent link="link{i}"/><child link="link{i + 1}"/>'
+                 '<axis xyz="0 0 1"/><limit lower="-3.14" upper="3.14" effort="10" velocity="2"/></joint>'
+                 for i, j in enumerate(joints))
+    hw = "".join(f'<joint name="{j}"><command_interface name="position"/><state_interface name="position">'
+                 f'<param name="initial_value">{float(v)!r}</param></state_interface>'
+                 '<state_interface name="velocity"/></joint>' for j, v in initial.items())
+    return (f'<robot name="arm">{links}{js}<ros2_control name="{name}" type="system"><hardware>'
+            f'<plugin>mock_components/GenericSystem</plugin></hardware>{hw}</ros2_control></robot>')
+
+
+def _errors(log, since=0) -> list[str]:
+    return [r.msg for r in log.records[since:] if int(r.severity) >= 40][:5]
+
+
+def _commands(cm, joints) -> list[float]:
+    return [cm.rm.command_value(f"{j}/position") for j in joints]
+
+
+def _positions(cm, joints) -> list[float]:
+    return [cm.rm.value(f"{j}/position") for j in joints]
+
+
+def _load(cm, name, cls, out, key) -> object | None:
+    """Load and configure the student's ``cls()`` as ``name``; record why it failed in ``out[key]``."""
+    try:
+        ctrl = cls()
+    except Exception as exc:  # noqa: BLE001 - the student's constructor: its exception is the feedback
+        if isinstance(exc, NotImplementedError):
+            raise
+        out[key] = f"{type(exc).__name__} in {cls.__name__}(): {exc}"
+        return None
+    mark = len(cm.log.records)
+    if cm.load_controller(name, controller=ctrl) is None:
+        out[key] = "load failed: " + " | ".join(_errors(cm.log, mark))
+        return None
+    if cm.configure_controller(name) != return_type.OK:
+        why = cm.controllers[name].lifecycle.last_exception
+        if isinstance(why, NotImplementedError):
+            raise NotImplementedError
+        out[key] = "configure failed: " + (f"{type(why).__name__}: {why}" if why else " | ".join(_errors(cm.log, mark)))
+        return None
+    return ctrl
+
+
+def _raise_if_unfinished(cm, name) -> None:
+    spec = cm.controllers.get(name)
+    why = spec.lifecycle.last_exception if spec is not None else None
+    if isinstance(why, NotImplementedError) or cm.log.count("Caught exception of type : NotImplementedError"):
+        raise NotImplementedError
+
+
+def allocation_growth(build, sizes=(2, 34)) -> dict:
+    """Peak bytes of one call (min of two measurements) for each size, and bytes kept per call at the largest.
+
+    ``build(n)`` returns the function of no argument to measure with ``n`` joints (or raises)."""
+    from robocourse.rt.allocations import measure_allocations
+
+    peaks, kept = [], 0.0
+    for n in sizes:
+        fn = build(n)
+        runs = [measure_allocations(fn, calls=30) for _ in range(2)]
+        peaks.append(min(r.peak_bytes for r in runs))
+        kept = min(r.retained_bytes_per_call for r in runs)
+    return {"sizes": list(sizes), "peak_bytes": peaks, "kept_per_call": kept}
+
+
+def allocation_verdict(what: str, alloc, bytes_per_joint: int = 8) -> str | None:
+    """The feedback for ``allocation_growth`` data, or None when the call creates no buffer per cycle."""
+    if not isinstance(alloc, dict):
+        return None if alloc is None else f"{what} could not be measured: {alloc}"
+    try:
+        (n0, n1), (p0, p1), kept = alloc["sizes"], alloc["peak_bytes"], number(alloc["kept_per_call"])
+        p0, p1 = number(p0), number(p1)
+    except (KeyError, TypeError, ValueError):
+        return f"{what}: the allocation measurement came back malformed"
+    if not (math.isfinite(p0) and math.isfinite(p1) and math.isfinite(kept)):
+        return f"{what}: the allocation measurement came back malformed"
+    grown = p1 - p0
+    if grown >= bytes_per_joint * (n1 - n0):
+        return (f"{what} allocates a buffer every cycle: one call's peak memory grows from {p0:.0f} to {p1:.0f} bytes "
+                f"when the joints go from {n0} to {n1} (tracemalloc). Create arrays in on_configure and write into "
+                "them (np.copyto, out= of numpy functions, np.take(..., out=buf, mode='clip'), or a loop over "
+                "preallocated storage); fancy indexing like values[idx] and list comprehensions build new objects")
+    if kept > 8:
+        return (f"{what} keeps {kept:.0f} bytes per call that are never freed (a list or dict growing every "
+                "cycle): a real-time loop must run forever in constant memory")
+    return None
+
+
+# --- exercise 6: a controller of your own (ControllerInterface) ------------------------------------------------------
+
+CTRL_JOINTS = ("joint1", "joint2", "joint3", "joint4")
+CTRL_NAME = "slew_controller"
+
+
+def _ctrl_inputs(rng):
+    initial = {j: round(float(v), 3) for j, v in zip(CTRL_JOINTS, rng.uniform(-1.0, 1.0, len(CTRL_JOINTS)))}
+    k = int(rng.integers(2, 4))
+    joints = [CTRL_JOINTS[i] for i in rng.permutation(len(CTRL_JOINTS))[:k]]
+    start = np.array([initial[j] for j in joints])
+    return {"initial": initial, "joints": joints, "max_velocity": round(float(rng.uniform(0.3, 1.0)), 2),
+            "target1": (start + rng.choice([-1, 1], k) * rng.uniform(0.2, 0.6, k)).round(3).tolist(),
+            "target2": (start + rng.uniform(-0.3, 0.3, k)).round(3).tolist(),
+            "moved": (start + rng.uniform(-0.5, 0.5, k)).round(3).tolist(),
+            "slow_rate": int(rng.choice([20, 25, 50]))}
+
+
+def _ctrl_manager(inputs, extra_params=None, initial=None):
+    from robocourse.bus import Context
+
+    joints = inputs["joints"]
+    rest = [j for j in CTRL_JOINTS if j not in joints]
+    params = {"controller_manager": {"update_rate": 100,
+                                     "other.type": "position_controllers/JointGroupPositionController",
+                                     "mover.type": "position_controllers/JointGroupPositionController"},
+              CTRL_NAME: {"joints": list(joints), "max_velocity": inputs["max_velocity"], **(extra_params or {})},
+              "other": {"joints": rest}, "mover": {"joints": list(joints)}}
+    return ControllerManager(generic_urdf(initial or inputs["initial"]), params=params,
+                             log=LogSink(log_to_stderr=False), context=Context(use_sim_time=True))
+
+
+def _publisher(cm, topic, msg_type):
+    node = cm.context.create_node("grader_peer")
+    cm.executor.add_node(node)
+    return node.create_publisher(msg_type, topic, 10)
+
+
+def controller_scenario(inputs, cls) -> dict:
+    """Run ``cls`` (a ControllerInterface) through the custom-controller scenarios; what happened, as plain data."""
+    from robocourse.msgs.std_msgs import Float64MultiArray
+
+    joints, out = inputs["joints"], {}
+    cm = _ctrl_manager(inputs)
+    ctrl = _load(cm, CTRL_NAME, cls, out, "load")
+    if ctrl is None:
+        return plain(out)
+    for name in ("other", "mover"):
+        cm.load_controller(name)
+        cm.configure_controller(name)
+    mark = len(cm.log.records)
+    ret = cm.switch_controller([CTRL_NAME, "other"], [], STRICT)
+    _raise_if_unfinished(cm, CTRL_NAME)
+    out["switch"] = int(ret)
+    out["switch_message"] = cm.last_switch_message if ret != return_type.OK else ""
+    out["claimed_commands"] = [loan.name for loan in ctrl.command_interfaces]
+    out["claimed_states"] = [loan.name for loan in ctrl.state_interfaces]
+    out["errors"] = _errors(cm.log, mark)
+    if ret != return_type.OK:            # try alone: a controller that claims too much still gets graded on the rest
+        mark2 = len(cm.log.records)
+        ret = cm.switch_controller([CTRL_NAME], [], STRICT)
+        _raise_if_unfinished(cm, CTRL_NAME)
+        out["switch_alone"] = int(ret)
+        out["claimed_commands"] = [loan.name for loan in ctrl.command_interfaces]
+        out["claimed_states"] = [loan.name for loan in ctrl.state_interfaces]
+        if ret != return_type.OK:
+            out["switch_alone_message"] = " | ".join([cm.last_switch_message] + _errors(cm.log, mark2))
+            return plain(out)
+    pub = _publisher(cm, f"/{CTRL_NAME}/commands", Float64MultiArray)
+
+    def record(cycles, what=_commands):
+        rows = []
+        for _ in range(cycles):
+            cm.step()
+            _raise_if_unfinished(cm, CTRL_NAME)
+            rows.append(what(cm, joints))
+        return rows
+
+    out["hold"] = record(20, _positions)                       # 1. activated with no target: nothing moves
+    pub.publish(Float64MultiArray(data=list(inputs["target1"])))
+    out["track"] = record(150)                                  # 2. slew toward the target at max_velocity
+    pub.publish(Float64MultiArray(data=list(inputs["target2"])))
+    bad = record(8)
+    pub.publish(Float64MultiArray(data=[math.nan] + list(inputs["target1"][1:])))   # 3. a NaN: ignored
+    bad += record(8)
+    pub.publish(Float64MultiArray(data=list(inputs["target1"]) + [0.0]))              # 4. wrong size: ignored
+    bad += record(30)
+    out["bad_input"] = bad
+    out["state_after_bad_input"] = cm.controllers[CTRL_NAME].state.label
+    # 5. deactivated, another controller moves the joints, activated again: it must start from there
+    cm.switch_controller(["mover"], [CTRL_NAME], STRICT)
+    cm.controllers["mover"].c.set_command(inputs["moved"])
+    cm.step(40)
+    out["reswitch"] = int(cm.switch_controller([CTRL_NAME], ["mover"], STRICT))
+    _raise_if_unfinished(cm, CTRL_NAME)
+    out["reactivated"] = record(20, _positions)
+    out["errors"] += _errors(cm.log, mark)
+
+    # 6. its own update_rate below the manager's: update() gets the longer period
+    slow = _ctrl_manager(inputs, {"update_rate": inputs["slow_rate"]})
+    sctrl = _load(slow, CTRL_NAME, cls, out, "slow_load")
+    if sctrl is not None and slow.switch_controller([CTRL_NAME], [], STRICT) == return_type.OK:
+        _publisher(slow, f"/{CTRL_NAME}/commands", Float64MultiArray).publish(
+            Float64MultiArray(data=list(inputs["target1"])))
+        rows = []
+        for _ in range(40):
+            slow.step()
+            rows.append(_commands(slow, joints))
+        out["slow"] = rows
+
+    # 7. update() allocates nothing per cycle
+    def build(n):
+        names = [f"joint{i + 1}" for i in range(n)]
+        m = ControllerManager(generic_urdf({j: 0.0 for j in names}),
+                              params={"controller_manager": {"update_rate": 100},
+                                      CTRL_NAME: {"joints": names, "max_velocity": inputs["max_velocity"]}},
+                              log=LogSink(log_to_stderr=False))
+        c = cls()
+        m.load_controller(CTRL_NAME, controller=c)
+        m.configure_controller(CTRL_NAME)
+        if m.switch_controller([CTRL_NAME], [], STRICT) != return_type.OK:
+            raise RuntimeError(m.last_switch_message)
+        _publisher(m, f"/{CTRL_NAME}/commands", Float64MultiArray).publish(Float64MultiArray(data=[1.0] * n))
+        m.step(2)
+        return lambda: c.update(m.time, 0.01)
+
+    try:
+        out["alloc"] = allocation_growth(build)
+    except Exception as exc:  # noqa: BLE001 - reported, judged as "could not be measured"
+        out["alloc"] = f"{type(exc).__name__}: {exc}"
+    return plain(out)
+
+
+def _ctrl_probe(inputs, SlewRateController):
+    return controller_scenario(inputs, SlewRateController)
+
+
+class _ReferenceSlew(ControllerInterface):
+    """The judge's reference for exercise 6 (what the solution notebook asks students to write)."""
+
+    from .parameters import ParameterSchema as _Schema
+
+    PARAMS = _Schema.from_yaml("""
+slew_rate_controller:
+  joints: {type: string_array, validation: {not_empty<>: null, unique<>: null}}
+  max_velocity: {type: double, default_value: 0.5, validation: {gt<>: [0.0]}}
+""")
+    del _Schema
+
+    def on_configure(self, previous_state):
+        from robocourse.msgs.std_msgs import Float64MultiArray
+
+        n = len(self.params.joints)
+        self.command, self.target, self.step = np.zeros(n), np.zeros(n), np.zeros(n)
+        self.newest = None
+        if self._node is None:
+            self.get_node().create_subscription(Float64MultiArray, "~/commands", self._on_commands, 10)
+        return CallbackReturn.SUCCESS
+
+    def _on_commands(self, msg):
+        if len(msg.data) == len(self.target) and all(math.isfinite(v) for v in msg.data):
+            self.newest = np.array(msg.data, dtype=float)
+
+    def command_interface_configuration(self):
+        return InterfaceConfiguration(ict.INDIVIDUAL, [f"{j}/position" for j in self.params.joints])
+
+    def state_interface_configuration(self):
+        return InterfaceConfiguration(ict.INDIVIDUAL, [f"{j}/position" for j in self.params.joints])
+
+    def on_activate(self, previous_state):
+        for k, loan in enumerate(self.state_interfaces):
+            self.command[k] = loan.get_value()
+        self.target[:] = self.command
+        self.newest = None
+        return CallbackReturn.SUCCESS
+
+    def update(self, time, period):
+        newest, self.newest = self.newest, None
+        if newest is not None:
+            self.target[:] = newest
+        limit = self.params.max_velocity * period
+        np.subtract(self.target, self.command, out=self.step)
+        np.clip(self.step, -limit, limit, out=self.step)
+        np.add(self.command, self.step, out=self.command)
+        for k, loan in enumerate(self.command_interfaces):
+            loan.set_value(self.command[k])
+        return return_type.OK
+
+
+def _rows_differ(got, want, tol=1e-9) -> tuple[int, float] | None:
+    """(first row index, difference) where two recordings part, or None when they agree."""
+    try:
+        g, w = np.asarray(got, dtype=float), np.asarray(want, dtype=float)
+    except (TypeError, ValueError):
+        return (0, math.inf)
+    if g.shape != w.shape:
+        return (0, math.inf)
+    d = np.abs(g - w)
+    d[np.isnan(d) & ~(np.isnan(g) & np.isnan(w))] = math.inf
+    d[np.isnan(g) & np.isnan(w)] = 0.0
+    bad = np.nonzero(d.max(axis=-1) > tol)[0] if d.ndim > 1 else np.nonzero(d > tol)[0]
+    return None if len(bad) == 0 else (int(bad[0]), float(d[bad[0]].max()))
+
+
+@register("ch04.controller", weight=4, time_limit=60, uses=("SlewRateController",), probe=_ctrl_probe,
+          inputs=_ctrl_inputs, references=("robocourse.control.checks:_ReferenceSlew",))
+def check_controller(inputs, out):
+    """SlewRateController: claims, no activation jump, slew at max_velocity with the period given, bad input ignored."""
+    if not isinstance(out, dict):
+        raise CheckFailed("the scenario returned nothing")
+    ref = controller_scenario(inputs, _ReferenceSlew)
+    f = Failures()
+    joints, vmax = inputs["joints"], inputs["max_velocity"]
+    if out.get("load"):
+        raise CheckFailed(f"the controller did not come up: {out['load']}")
+    want_c, want_s = ref["claimed_commands"], ref["claimed_states"]
+    if out.get("claimed_commands") != want_c or out.get("claimed_states") != want_s:
+        f.add(f"with joints {joints} it claimed command interfaces {out.get('claimed_commands')} and state interfaces "
+              f"{out.get('claimed_states')}; expected {want_c} and {want_s}, in the order of the 'joints' parameter "
+              "(INDIVIDUAL, '<joint>/position')")
+    if out.get("switch") != 0:
+        alone = out.get("switch_alone")
+        f.add("it could not be activated next to a controller on the other joints: "
+              + (out.get("switch_message") or "").replace("\n", " ")
+              + (" (alone it activated: it claims interfaces it does not need, e.g. ALL)" if alone == 0 else ""))
+        if alone != 0:
+            f.add("alone it could not be activated either: " + (out.get("switch_alone_message") or "").replace("\n", " "))
+            return f.done("")
+    hold = out.get("hold")
+    start = [inputs["initial"][j] for j in joints]
+    if _rows_differ(hold, [start] * len(ref["hold"])) is not None:
+        try:
+            moved = float(np.abs(np.asarray(hold, dtype=float) - start).max())
+        except (TypeError, ValueError):
+            moved = math.inf
+        f.add(f"the activation jump: activated with no target, the joints moved up to {moved:.3f} rad from {start}. "
+              "on_activate must copy each joint's measured position (state interface) into the command it writes")
+    track = _rows_differ(out.get("track"), ref["track"])
+    if track is not None:
+        k, d = track
+        f.add(f"after the target {inputs['target1']} arrived, cycle {k + 1}'s commands were {_row(out.get('track'), k)}, "
+              f"expected {_row(ref['track'], k)} (off by {d:.4f} rad): each update moves every command toward the "
+              f"newest target by at most max_velocity * period = {vmax:g} rad/s x {1 / 100:g} s, and stops on it")
+    bad = _rows_differ(out.get("bad_input"), ref["bad_input"])
+    if bad is not None or out.get("state_after_bad_input") != "active":
+        k = bad[0] if bad else 0
+        f.add(f"a message with a NaN, then one with {len(joints) + 1} values, must be ignored (the controller keeps "
+              f"its last valid target {inputs['target2']} and stays active); cycle {k + 1} after the new target: "
+              f"commands {_row(out.get('bad_input'), k)}, expected {_row(ref['bad_input'], k)}, controller "
+              f"'{out.get('state_after_bad_input')}'")
+    re = _rows_differ(out.get("reactivated"), ref["reactivated"])
+    if out.get("reswitch") != 0 or re is not None:
+        f.add(f"deactivated, moved to {inputs['moved']} by another controller, then activated again, it drove the "
+              f"joints to {_row(out.get('reactivated'), -1)} instead of holding {_row(ref['reactivated'], -1)}: copy "
+              "the measured positions in on_activate every time, not once in on_configure")
+    slow = _rows_differ(out.get("slow"), ref.get("slow"))
+    if slow is not None:
+        k, d = slow
+        f.add(f"with update_rate: {inputs['slow_rate']} under a 100 Hz manager, update() runs every "
+              f"{100 // inputs['slow_rate']} cycles and its period is {1 / inputs['slow_rate']:g} s: after cycle "
+              f"{k + 1} the commands were {_row(out.get('slow'), k)}, expected {_row(ref['slow'], k)}. Use the "
+              "period argument, not a fixed step")
+    alloc = allocation_verdict("update()", out.get("alloc"))
+    if alloc:
+        f.add(alloc)
+    if out.get("errors") and f.messages:
+        f.add("the manager logged: " + " | ".join(out["errors"][:3]))
+    return f.done(f"{len(joints)} joints: claims in order, no jump on activation, slewing at {vmax:g} rad/s with the "
+                  "period given, bad messages ignored, no buffer allocated per update")
+
+
+def _row(rows, k) -> list:
+    try:
+        return [round(float(v), 6) for v in rows[k]]
+    except (TypeError, IndexError, ValueError, KeyError):
+        return []
+
+
+# --- exercise 7: a chainable controller after the JTC (a joint limiter) --------------------------------------------
+
+LIM_NAME = "joint_limiter"
+
+
+class ReferenceWriter(ControllerInterface):
+    """The chain check's scripted preceding controller: claims ``<target>/<joint>/position`` reference
+    interfaces and writes row k of ``script`` in its k-th update (the last row after the end)."""
+
+    def __init__(self, target: str, joints, script):
+        super().__init__()
+        self.target, self.joints, self.script, self.k = target, list(joints), np.asarray(script, dtype=float), 0
+
+    def command_interface_configuration(self):
+        return InterfaceConfiguration(ict.INDIVIDUAL, [f"{self.target}/{j}/position" for j in self.joints])
+
+    def state_interface_configuration(self):
+        return InterfaceConfiguration(ict.NONE)
+
+    def on_activate(self, previous_state):
+        self.k = 0
+        return CallbackReturn.SUCCESS
+
+    def update(self, time, period):
+        row = self.script[min(self.k, len(self.script) - 1)]
+        for i, loan in enumerate(self.command_interfaces):
+            loan.set_value(row[i])
+        self.k += 1
+        return return_type.OK
+
+
+def _lim_inputs(rng):
+    n = int(rng.integers(2, 4))
+    joints = [f"joint{i + 1}" for i in range(n)]
+    lo, hi = (-rng.uniform(0.3, 0.8, n)).round(3), rng.uniform(0.3, 0.8, n).round(3)
+    initial = (rng.uniform(0.2, 0.6, n) * np.where(rng.random(n) < 0.5, lo, hi)).round(3)
+    rate = int(rng.choice([100, 200]))
+    vmax = round(float(rng.uniform(0.4, 1.0)), 2)
+    beyond = (hi + rng.uniform(0.1, 0.4, n)).round(3)                 # every joint asked past its upper limit
+    script = [initial.tolist()] * 10                                   # A: hold, the limiter is transparent
+    script += [np.where(np.arange(n) == 0, beyond, initial).tolist()] * int(rate * 1.2)   # B: joint 1 past its limit
+    nan_row = np.where(np.arange(n) == n - 1, np.nan, beyond).tolist()
+    script += [nan_row] * 8                                            # C: NaN on the last joint: it holds
+    t = np.arange(int(rate * 0.8)) / rate                              # D: a slow wave inside the limits
+    wave = 0.5 * np.outer(np.sin(2 * np.pi * 0.5 * t), (hi - lo) / 2 * 0.5) + (lo + hi) / 2
+    script += wave.round(6).tolist()
+    jtc_goal = np.where(np.arange(n) % 2 == 0, beyond, lo + (hi - lo) * 0.3).round(3)
+    return {"joints": joints, "min": lo.tolist(), "max": hi.tolist(), "initial": initial.tolist(), "rate": rate,
+            "max_velocity": vmax, "script": script, "jtc_goal": jtc_goal.tolist()}
+
+
+def _lim_manager(inputs, joints=None, initial=None):
+    from robocourse.bus import Context
+
+    joints = joints or inputs["joints"]
+    initial = initial if initial is not None else inputs["initial"]
+    params = {"controller_manager": {"update_rate": inputs["rate"],
+                                     "jtc.type": "joint_trajectory_controller/JointTrajectoryController"},
+              LIM_NAME: {"joints": list(joints), "max_velocity": inputs["max_velocity"],
+                         "min_position": list(inputs["min"]), "max_position": list(inputs["max"])},
+              "jtc": {"joints": list(joints), "command_joints": [f"{LIM_NAME}/{j}" for j in joints],
+                      "command_interfaces": ["position"], "state_interfaces": ["position"]}}
+    return ControllerManager(generic_urdf(dict(zip(joints, initial))), params=params, log=LogSink(log_to_stderr=False),
+                             context=Context(use_sim_time=True))
+
+
+def limiter_scenario(inputs, cls) -> dict:
+    """Run ``cls`` (a ChainableControllerInterface) after a JTC and after a scripted peer; plain data."""
+    from robocourse.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
+
+    joints, out = inputs["joints"], {}
+    cm = _lim_manager(inputs)
+    lim = _load(cm, LIM_NAME, cls, out, "load")
+    if lim is None:
+        return plain(out)
+    out["chainable"] = bool(lim.is_chainable())
+    out["exported"] = cm.rm.controller_interfaces(LIM_NAME)[0]
+    mark = len(cm.log.records)
+    jtc_ok = cm.load_controller("jtc") is not None and cm.configure_controller("jtc") == return_type.OK
+    out["jtc_loaded"] = jtc_ok
+
+    def switch(act, deact):
+        ret = cm.switch_controller(act, deact, STRICT)
+        _raise_if_unfinished(cm, LIM_NAME)
+        return [int(ret), cm.last_switch_message.replace("\n", " ") if ret != return_type.OK else ""]
+
+    def record(cycles, what=_commands):
+        rows = []
+        for _ in range(cycles):
+            cm.step()
+            _raise_if_unfinished(cm, LIM_NAME)
+            rows.append(what(cm, joints))
+        return rows
+
+    out["jtc_alone"] = switch(["jtc"], []) if jtc_ok else [1, "the JTC did not load"]
+    out["limiter_alone"] = switch([LIM_NAME], [])
+    if out["limiter_alone"][0] != 0:
+        out["errors"] = _errors(cm.log, mark)
+        return plain(out)
+    out["hold"] = record(int(0.2 * inputs["rate"]), _positions)
+    out["chained_alone"] = bool(lim.is_in_chained_mode())
+    # the JTC in front: the activation rules, then a trajectory past the limits
+    out["jtc_after"] = switch(["jtc"], []) if jtc_ok else [1, "the JTC did not load"]
+    out["order"] = cm.ordered_controllers()
+    out["chained_with_jtc"] = bool(lim.is_in_chained_mode())
+    out["limiter_under_jtc"] = switch([], [LIM_NAME])
+    if out["jtc_after"][0] == 0:
+        node = cm.context.create_node("grader_peer")
+        cm.executor.add_node(node)
+        msg = JointTrajectory(joint_names=list(joints))
+        point = JointTrajectoryPoint(positions=list(inputs["jtc_goal"]), velocities=[0.0] * len(joints))
+        point.time_from_start.sec = 1
+        msg.points.append(point)
+        node.create_publisher(JointTrajectory, "/jtc/joint_trajectory", 10).publish(msg)
+        out["jtc_run"] = record(int(1.5 * inputs["rate"]))
+        out["jtc_off"] = switch([], ["jtc"])
+        out["chained_after_jtc"] = bool(lim.is_in_chained_mode())
+        out["after_jtc"] = record(10)
+    out["errors"] = _errors(cm.log, mark)
+    out["state"] = cm.controllers[LIM_NAME].state.label
+    # a fresh manager, the scripted preceding controller: steps past the limits, a NaN, a wave inside them
+    cm = _lim_manager(inputs)
+    lim = _load(cm, LIM_NAME, cls, out, "scripted_load")
+    writer = ReferenceWriter(LIM_NAME, joints, inputs["script"])
+    if lim is not None and cm.load_controller("writer", controller=writer) is not None \
+            and cm.configure_controller("writer") == 0:
+        out["writer_switch"] = switch([LIM_NAME, "writer"], [])
+        if out["writer_switch"][0] == 0:
+            out["scripted"] = record(len(inputs["script"]))
+
+    def build(n):
+        names = [f"joint{i + 1}" for i in range(n)]
+        wide = {**inputs, "min": [-1.0] * n, "max": [1.0] * n}
+        m = _lim_manager(wide, names, [0.0] * n)
+        c = cls()
+        m.load_controller(LIM_NAME, controller=c)
+        m.configure_controller(LIM_NAME)
+        if m.switch_controller([LIM_NAME], [], STRICT) != return_type.OK:
+            raise RuntimeError(m.last_switch_message)
+        c.reference_interfaces[:] = 0.5
+        m.step(2)
+        return lambda: c.update(m.time, 1.0 / inputs["rate"])
+
+    try:
+        out["alloc"] = allocation_growth(build)
+    except Exception as exc:  # noqa: BLE001 - reported, judged as "could not be measured"
+        out["alloc"] = f"{type(exc).__name__}: {exc}"
+    return plain(out)
+
+
+def _lim_probe(inputs, JointLimiter):
+    return limiter_scenario(inputs, JointLimiter)
+
+
+def _reference_limiter():
+    """The judge's reference for exercise 7 (built lazily: the chainable base lives in the manager package)."""
+    from .manager.controller_interface import ChainableControllerInterface
+    from .parameters import ParameterSchema
+
+    class _ReferenceLimiter(ChainableControllerInterface):
+        PARAMS = ParameterSchema.from_yaml("""
+joint_limiter:
+  joints: {type: string_array, validation: {not_empty<>: null, unique<>: null}}
+  max_velocity: {type: double, default_value: 1.0, validation: {gt<>: [0.0]}}
+  min_position: {type: double_array, default_value: []}
+  max_position: {type: double_array, default_value: []}
+""")
+
+        def on_configure(self, previous_state):
+            n = len(self.params.joints)
+            if len(self.params.min_position) != n or len(self.params.max_position) != n:
+                return CallbackReturn.ERROR
+            self.lo, self.hi = np.array(self.params.min_position), np.array(self.params.max_position)
+            self.command, self.wanted = np.zeros(n), np.zeros(n)
+            return CallbackReturn.SUCCESS
+
+        def command_interface_configuration(self):
+            return InterfaceConfiguration(ict.INDIVIDUAL, [f"{j}/position" for j in self.params.joints])
+
+        def state_interface_configuration(self):
+            return InterfaceConfiguration(ict.INDIVIDUAL, [f"{j}/position" for j in self.params.joints])
+
+        def on_export_reference_interfaces(self):
+            return [f"{j}/position" for j in self.params.joints]
+
+        def on_activate(self, previous_state):
+            for k, loan in enumerate(self.state_interfaces):
+                self.command[k] = loan.get_value()
+            self.reference_interfaces[:] = self.command
+            return CallbackReturn.SUCCESS
+
+        def update_reference_from_subscribers(self, time, period):
+            return return_type.OK
+
+        def update_and_write_commands(self, time, period):
+            step = self.params.max_velocity * period
+            np.copyto(self.wanted, self.reference_interfaces)
+            np.copyto(self.wanted, self.command, where=~np.isfinite(self.wanted))
+            np.clip(self.wanted, self.lo, self.hi, out=self.wanted)
+            np.subtract(self.wanted, self.command, out=self.wanted)
+            np.clip(self.wanted, -step, step, out=self.wanted)
+            np.add(self.command, self.wanted, out=self.command)
+            for k, loan in enumerate(self.command_interfaces):
+                loan.set_value(self.command[k])
+            return return_type.OK
+
+    return _ReferenceLimiter
+
+
+@register("ch04.chainable", weight=4, time_limit=90, uses=("JointLimiter",), probe=_lim_probe, inputs=_lim_inputs)
+def check_chainable(inputs, out):
+    """JointLimiter after a JTC: reference interfaces, the chain's activation rules, limited output, NaN held."""
+    if not isinstance(out, dict):
+        raise CheckFailed("the scenario returned nothing")
+    if out.get("load"):
+        raise CheckFailed(f"the limiter did not come up: {out['load']}")
+    ref = limiter_scenario(inputs, _reference_limiter())
+    f = Failures()
+    joints, rate, vmax = inputs["joints"], inputs["rate"], inputs["max_velocity"]
+    refs = [f"{LIM_NAME}/{j}/position" for j in joints]
+    if not out.get("chainable"):
+        f.add("is_chainable() is False: derive the limiter from ChainableControllerInterface")
+    if out.get("exported") != refs:
+        f.add(f"it exports reference interfaces {out.get('exported')}; the JTC's command_joints "
+              f"[{LIM_NAME}/<joint>] with command interface position need {refs}: on_export_reference_interfaces "
+              "returns '<joint>/position' for each joint, in order (the manager adds the controller's name)")
+    rules = []
+    if (out.get("jtc_alone") or [0])[0] == 0:
+        rules.append("the JTC was activated while the limiter it writes into was inactive (its reference "
+                     "interfaces must exist, and be unavailable until the limiter is active)")
+    if (out.get("limiter_alone") or [1])[0] != 0:
+        rules.append(f"the limiter alone could not be activated: {(out.get('limiter_alone') or ['', ''])[1]}")
+    if (out.get("jtc_after") or [1])[0] != 0:
+        rules.append(f"with the limiter active the JTC could not be activated: {(out.get('jtc_after') or ['', ''])[1]}")
+    elif out.get("order") != ref["order"] or not out.get("chained_with_jtc"):
+        rules.append(f"the manager's update order is {out.get('order')} and the limiter's chained mode "
+                     f"{out.get('chained_with_jtc')}; expected {ref['order']} and True (on_set_chained_mode must accept)")
+    if (out.get("limiter_under_jtc") or [0])[0] == 0:
+        rules.append("the limiter was deactivated while the JTC still wrote into it")
+    if out.get("chained_after_jtc") not in (False, None):
+        rules.append("after the JTC was deactivated the limiter still says it is in chained mode")
+    for r in rules:
+        f.add("chain rules: " + r)
+    if out.get("limiter_alone", [1])[0] == 0:
+        hold = out.get("hold")
+        if _rows_differ(hold, [inputs["initial"]] * len(ref["hold"])) is not None:
+            f.add(f"activated before any reference was written, the joints moved from {inputs['initial']} to "
+                  f"{_row(hold, -1)}: on_activate must start the command (and the reference interfaces) at the "
+                  "measured positions; the reference interfaces start as NaN")
+    if ref.get("jtc_run") is not None and out.get("jtc_run") is not None:
+        d = _rows_differ(out.get("jtc_run"), ref["jtc_run"])
+        if d is not None:
+            k, dv = d
+            f.add(f"behind the JTC (goal {inputs['jtc_goal']}, limits {inputs['min']}..{inputs['max']} rad, "
+                  f"{vmax:g} rad/s at {rate} Hz) cycle {k + 1}'s commands were {_row(out['jtc_run'], k)}, expected "
+                  f"{_row(ref['jtc_run'], k)}: clamp each reference to [min_position, max_position], then move the "
+                  f"command toward it by at most max_velocity * period")
+    script, sref = out.get("scripted"), ref.get("scripted")
+    if sref is not None:
+        n_b = 10 + int(rate * 1.2)
+        phases = (("transparent while the reference is inside the limits", 0, 10),
+                  ("past the upper limit: ramp at max_velocity, then stop at max_position", 10, n_b),
+                  ("a NaN reference: that joint holds its last command", n_b, n_b + 8),
+                  ("a wave inside the limits: follow it (after catching up at max_velocity)", n_b + 8, len(sref)))
+        if script is None:
+            f.add(f"the scripted preceding controller could not chain to the limiter: {out.get('writer_switch')}")
+        else:
+            for what, a, b in phases:
+                d = _rows_differ(_rows(script, a, b), sref[a:b])
+                if d is not None:
+                    k, dv = d
+                    f.add(f"{what}: step {a + k + 1} of the script, reference {_row(inputs['script'], a + k)} -> "
+                          f"commands {_row(script, a + k)}, expected {_row(sref, a + k)}")
+    alloc = allocation_verdict("update()", out.get("alloc"))
+    if alloc:
+        f.add(alloc)
+    return f.done(f"{len(joints)} joints behind a JTC: reference interfaces exported, chain rules hold, commands "
+                  f"clamped to the limits at {vmax:g} rad/s, NaN held, nothing allocated per update")
+
+
+def _rows(rows, a, b):
+    try:
+        return rows[a:b]
+    except TypeError:
+        return None
