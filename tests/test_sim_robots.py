@@ -434,6 +434,9 @@ def test_a_box_on_a_table_has_its_centre_of_mass_at_its_centre_and_stays_at_rest
     assert np.abs(sim.data.xpos[obj] - start).max() < 1e-4  # settles < 0.1 mm into the table, no drift
     assert np.linalg.norm(sim.data.qvel[-6:]) < 1e-3
     assert sim.data.xquat[obj][0] == pytest.approx(1.0, abs=1e-6)  # not tilted
+    assert sim.touching("wall") == ["object"] and sim.touching("object") == ["wall"]
+    with pytest.raises(ValueError, match="no geom 'table'"):
+        sim.touching("table")
 
 
 def test_fingers_closing_on_a_box_on_a_table_stop_at_its_width_and_do_not_tip_it():

@@ -22,7 +22,9 @@ ADMITTANCE = "admittance_controller"
 
 @dataclass
 class WallPush:
-    """What a run measured: time (s), contact force on the table (N, +z = the arm pushing down), tip height (m)."""
+    """What a run measured, per cycle: time (s), contact force on the table (N, +z = the arm pushing
+    down), tool centre point height (m), the tool's tilt (deg between its axis and straight down),
+    and at the end which robot geoms touch the table."""
 
     t: np.ndarray
     force: np.ndarray
@@ -31,6 +33,8 @@ class WallPush:
     cm: object
     sim: object
     params: dict
+    tilt_deg: np.ndarray
+    touching: list
 
     @property
     def peak(self) -> float:
@@ -105,16 +109,18 @@ def wall_push(admittance: dict | None = None, *, depth: float = 0.04, gap: float
     msg.points.append(point)
     node.create_publisher(JointTrajectory, f"/{JTC}/joint_trajectory", 10).publish(msg)
     n = int(round(seconds * cm.update_rate))
-    t, force, tip_z = np.zeros(n), np.zeros(n), np.zeros(n)
+    t, force, tip_z, tilt = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     t0 = cm.time
     for k in range(n):
         cm.step()
         t[k] = cm.time - t0
         force[k] = -sim.contact_force("wall")[2]          # what the arm exerts on the table, downwards
-        tip_z[k] = sim.link_pose("tool_center_point")[0][2]
+        where, rot = sim.link_pose("tool_center_point")
+        tip_z[k] = where[2]
+        tilt[k] = np.degrees(np.arccos(np.clip(-rot[2, 2], -1.0, 1.0)))   # tool z axis vs straight down
         if on_cycle is not None:
             on_cycle(cm, sim)
-    return WallPush(t, force, tip_z, table_z, cm, sim, params)
+    return WallPush(t, force, tip_z, table_z, cm, sim, params, tilt, sim.touching("wall"))
 
 
 __all__ = ["ARM", "WallPush", "wall_push", "wall_push_params"]

@@ -455,6 +455,22 @@ class RobotSim:
             total += f if c.geom2 == gid else -f
         return total
 
+    def touching(self, geom: str = "wall") -> list[str]:
+        """Names of the geoms in contact with ``geom`` now ("left_finger/0", ...), sorted, each once."""
+        mj, m, d = self._mj, self.model, self.data
+        try:
+            gid = m.geom(geom).id
+        except KeyError:
+            raise ValueError(f"no geom {geom!r} in this simulation (a Wall is named 'wall', "
+                             "a GraspObject 'object')") from None
+        names = set()
+        for k in range(d.ncon):
+            c = d.contact[k]
+            if gid in (c.geom1, c.geom2):
+                other = c.geom2 if c.geom1 == gid else c.geom1
+                names.add(mj.mj_id2name(m, mj.mjtObj.mjOBJ_GEOM, other) or f"geom{other}")
+        return sorted(names)
+
     def link_pose(self, link: str) -> tuple[np.ndarray, np.ndarray]:
         """World position (m) and 3x3 rotation of a URDF link's frame (copies)."""
         try:
