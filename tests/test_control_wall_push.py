@@ -36,3 +36,15 @@ def test_tilt_and_touching_geoms_are_recorded_per_cycle(runs):
         assert run.touching and all(name.split("/")[0] in ("left_finger", "right_finger", "gripper_hand")
                                     for name in run.touching)
     assert stiff.tilt_deg[-1] > soft.tilt_deg[-1]      # the harder push twists the wrist further
+
+
+def test_joints_moving_tool_moves_the_flange_by_the_offset_keeping_its_orientation():
+    from robocourse.control.wall_push import joints_moving_tool
+    from robocourse.sim.robots import Kinematics
+
+    kin = Kinematics("ur5e")
+    q0 = np.array([0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0])
+    q = joints_moving_tool(q0, (0.02, -0.01, 0.06))
+    before, after = kin.calculate_link_transform(q0), kin.calculate_link_transform(q)
+    np.testing.assert_allclose(after[:3, 3] - before[:3, 3], [0.02, -0.01, 0.06], atol=1e-6)
+    np.testing.assert_allclose(after[:3, :3], before[:3, :3], atol=1e-3)

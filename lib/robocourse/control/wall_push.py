@@ -45,6 +45,21 @@ class WallPush:
         return float(self.force[self.t >= self.t[-1] - last_s].mean())
 
 
+def joints_moving_tool(q0, offset, steps: int = 8) -> np.ndarray:
+    """UR5e joint positions that move the flange by ``offset`` (m, world) from ``q0`` keeping its
+    orientation: Newton steps on the flange position through the Jacobian (the admittance
+    controller's kinematics interface, ``convert_cartesian_deltas_to_joint_deltas``)."""
+    from robocourse.sim.robots import Kinematics
+
+    kin = Kinematics("ur5e")
+    q = np.array(q0, dtype=float)
+    target = kin.calculate_link_transform(q)[:3, 3] + np.asarray(offset, dtype=float)
+    for _ in range(steps):
+        q = q + kin.convert_cartesian_deltas_to_joint_deltas(
+            q, np.r_[target - kin.calculate_link_transform(q)[:3, 3], 0.0, 0.0, 0.0])
+    return q
+
+
 def wall_push_params(admittance: dict | None, gravity: tuple[float, list[float]] | None = None) -> dict:
     """The manager's parameters: a JTC alone, or a JTC chained into an admittance controller."""
     jtc = {"joints": list(ARM), "command_interfaces": ["position"], "state_interfaces": ["position", "velocity"]}
@@ -75,7 +90,7 @@ def wall_push(admittance: dict | None = None, *, depth: float = 0.04, gap: float
     from robocourse.control.hardware.mujoco_system import MujocoSystem
     from robocourse.control.log import LogSink
     from robocourse.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
-    from robocourse.sim.robots import Kinematics, RobotSim, Wall, urdf_text
+    from robocourse.sim.robots import RobotSim, Wall, urdf_text
 
     free = RobotSim("ur5e")
     tip = free.link_pose("tool_center_point")[0]
@@ -93,14 +108,7 @@ def wall_push(admittance: dict | None = None, *, depth: float = 0.04, gap: float
             raise ValueError(f"{name} refused its parameters: {getattr(cm, 'last_error', '') or log.records[-1].msg}")
     if cm.switch_controller(names, [], STRICT) != return_type.OK:
         raise RuntimeError(cm.last_switch_message)
-    # joint goal: the flange straight down by gap + depth (Jacobian steps on the flange position)
-    kin = Kinematics("ur5e")
-    q0 = np.array(sim.positions[:6], dtype=float)
-    target = kin.calculate_link_transform(q0)[:3, 3] + np.array([0.0, 0.0, -(gap + depth)])
-    q = q0.copy()
-    for _ in range(8):
-        q = q + kin.convert_cartesian_deltas_to_joint_deltas(
-            q, np.r_[target - kin.calculate_link_transform(q)[:3, 3], 0.0, 0.0, 0.0])
+    q = joints_moving_tool(sim.positions[:6], (0.0, 0.0, -(gap + depth)))
     node = cm.context.create_node("commander")
     cm.executor.add_node(node)
     msg = JointTrajectory(joint_names=list(ARM))
@@ -123,4 +131,4 @@ def wall_push(admittance: dict | None = None, *, depth: float = 0.04, gap: float
     return WallPush(t, force, tip_z, table_z, cm, sim, params, tilt, sim.touching("wall"))
 
 
-__all__ = ["ARM", "WallPush", "wall_push", "wall_push_params"]
+__all__ = ["ARM", "WallPush", "joints_moving_tool", "wall_push", "wall_push_params"]
