@@ -989,43 +989,42 @@ slew_rate_controller:
 """)
     del _Schema
 
+    def _names(self):
+        return InterfaceConfiguration(ict.INDIVIDUAL, [name + "/position" for name in self.params.joints])
+
+    command_interface_configuration = state_interface_configuration = _names
+
     def on_configure(self, previous_state):
         from robocourse.msgs.std_msgs import Float64MultiArray
 
-        n = len(self.params.joints)
-        self.command, self.target, self.step = np.zeros(n), np.zeros(n), np.zeros(n)
-        self.newest = None
+        size = len(self.params.joints)
+        self._out, self._goal, self._delta, self._inbox = np.zeros(size), np.zeros(size), np.zeros(size), None
         if self._node is None:
-            self.get_node().create_subscription(Float64MultiArray, "~/commands", self._on_commands, 10)
+            self.get_node().create_subscription(Float64MultiArray, "~/commands", self._take, 10)
         return CallbackReturn.SUCCESS
 
-    def _on_commands(self, msg):
-        if len(msg.data) == len(self.target) and all(math.isfinite(v) for v in msg.data):
-            self.newest = np.array(msg.data, dtype=float)
-
-    def command_interface_configuration(self):
-        return InterfaceConfiguration(ict.INDIVIDUAL, [f"{j}/position" for j in self.params.joints])
-
-    def state_interface_configuration(self):
-        return InterfaceConfiguration(ict.INDIVIDUAL, [f"{j}/position" for j in self.params.joints])
+    def _take(self, msg):
+        values = np.asarray(msg.data, dtype=float)
+        if values.shape == self._goal.shape and np.isfinite(values).all():
+            self._inbox = values
 
     def on_activate(self, previous_state):
-        for k, loan in enumerate(self.state_interfaces):
-            self.command[k] = loan.get_value()
-        self.target[:] = self.command
-        self.newest = None
+        from .manager.loaned import InterfaceGroup
+
+        self._cmd, self._meas = InterfaceGroup(self.command_interfaces), InterfaceGroup(self.state_interfaces)
+        self._meas.get(out=self._out)
+        np.copyto(self._goal, self._out)
+        self._inbox = None
         return CallbackReturn.SUCCESS
 
     def update(self, time, period):
-        newest, self.newest = self.newest, None
-        if newest is not None:
-            self.target[:] = newest
-        limit = self.params.max_velocity * period
-        np.subtract(self.target, self.command, out=self.step)
-        np.clip(self.step, -limit, limit, out=self.step)
-        np.add(self.command, self.step, out=self.command)
-        for k, loan in enumerate(self.command_interfaces):
-            loan.set_value(self.command[k])
+        box, self._inbox = self._inbox, None
+        if box is not None:
+            np.copyto(self._goal, box)
+        bound = period * self.params.max_velocity
+        np.clip(np.subtract(self._goal, self._out, out=self._delta), -bound, bound, out=self._delta)
+        self._out += self._delta
+        self._cmd.set(self._out)
         return return_type.OK
 
 
@@ -1286,41 +1285,42 @@ joint_limiter:
 """)
 
         def on_configure(self, previous_state):
-            n = len(self.params.joints)
-            if len(self.params.min_position) != n or len(self.params.max_position) != n:
+            size = len(self.params.joints)
+            if {len(self.params.min_position), len(self.params.max_position)} != {size}:
                 return CallbackReturn.ERROR
-            self.lo, self.hi = np.array(self.params.min_position), np.array(self.params.max_position)
-            self.command, self.wanted = np.zeros(n), np.zeros(n)
+            self._low = np.asarray(self.params.min_position, dtype=float)
+            self._high = np.asarray(self.params.max_position, dtype=float)
+            self._out, self._aim, self._gap = np.zeros(size), np.zeros(size), np.zeros(size, dtype=bool)
             return CallbackReturn.SUCCESS
 
-        def command_interface_configuration(self):
-            return InterfaceConfiguration(ict.INDIVIDUAL, [f"{j}/position" for j in self.params.joints])
+        def _names(self):
+            return InterfaceConfiguration(ict.INDIVIDUAL, [name + "/position" for name in self.params.joints])
 
-        def state_interface_configuration(self):
-            return InterfaceConfiguration(ict.INDIVIDUAL, [f"{j}/position" for j in self.params.joints])
+        command_interface_configuration = state_interface_configuration = _names
 
         def on_export_reference_interfaces(self):
-            return [f"{j}/position" for j in self.params.joints]
+            return [name + "/position" for name in self.params.joints]
 
         def on_activate(self, previous_state):
-            for k, loan in enumerate(self.state_interfaces):
-                self.command[k] = loan.get_value()
-            self.reference_interfaces[:] = self.command
+            from .manager.loaned import InterfaceGroup
+
+            self._cmd = InterfaceGroup(self.command_interfaces)
+            InterfaceGroup(self.state_interfaces).get(out=self._out)
+            np.copyto(self.reference_interfaces, self._out)
             return CallbackReturn.SUCCESS
 
         def update_reference_from_subscribers(self, time, period):
             return return_type.OK
 
         def update_and_write_commands(self, time, period):
-            step = self.params.max_velocity * period
-            np.copyto(self.wanted, self.reference_interfaces)
-            np.copyto(self.wanted, self.command, where=~np.isfinite(self.wanted))
-            np.clip(self.wanted, self.lo, self.hi, out=self.wanted)
-            np.subtract(self.wanted, self.command, out=self.wanted)
-            np.clip(self.wanted, -step, step, out=self.wanted)
-            np.add(self.command, self.wanted, out=self.command)
-            for k, loan in enumerate(self.command_interfaces):
-                loan.set_value(self.command[k])
+            bound = period * self.params.max_velocity
+            np.copyto(self._aim, self.reference_interfaces)
+            np.putmask(self._aim, np.isnan(self._aim, out=self._gap), self._out)
+            np.minimum(np.maximum(self._aim, self._low, out=self._aim), self._high, out=self._aim)
+            self._aim -= self._out
+            np.clip(self._aim, -bound, bound, out=self._aim)
+            self._out += self._aim
+            self._cmd.set(self._out)
             return return_type.OK
 
     return _ReferenceLimiter
