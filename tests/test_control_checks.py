@@ -7,6 +7,7 @@ runs every entry on 20 draws, quiet and under chapter 1's CPU load."""
 
 from __future__ import annotations
 
+import nbformat
 import numpy as np
 import pytest
 from ch04_bank import BANK, ORDER, SOL, references
@@ -15,8 +16,6 @@ import robocourse.control.checks  # noqa: F401  (registers ch04.*)
 from robocourse.control.motor_board import MotorBoardSystem
 from robocourse.grading import exercises
 from robocourse.grading.checks import get, run_check
-
-import nbformat
 
 
 def run(name, *objects, seed=0):
@@ -71,7 +70,10 @@ def test_controller_reference_is_refused():
 
 
 def test_cubic_reference_is_refused():
-    from robocourse.control.controllers.joint_trajectory_controller.trajectory import Sample, Trajectory
+    from robocourse.control.controllers.joint_trajectory_controller.trajectory import (
+        Sample,
+        Trajectory,
+    )
 
     def via_library(p0, v0, p1, v1, T, t):
         traj = Trajectory([0.0, T], [p0, p1], velocities=[v0, v1], start_time=1.0)

@@ -222,12 +222,7 @@ def board_scenario(inputs, component_class) -> dict:
         return make
 
     for stage in ("read", "write"):
-        try:
-            out[f"alloc_{stage}"] = allocation_growth(build(stage))
-        except Exception as exc:  # noqa: BLE001 - reported, judged as "could not be measured"
-            if isinstance(exc, NotImplementedError):
-                raise
-            out[f"alloc_{stage}"] = f"{type(exc).__name__}: {exc}"
+        out[f"alloc_{stage}"] = allocation_record(build(stage))
     return plain(out)
 
 
@@ -536,12 +531,9 @@ def _fault_scenario(rng, stage, result):
                                                "state": [f"{j}/{s}" for j in seen for s in ("position", "velocity")]}
         failed = str(rng.choice(list(FAULT_BOARDS)))
         mine = set(FAULT_BOARDS[failed])
-
-        def touches(c):
-            return {k.split("/")[0] for k in c["command"] + c["state"]} & mine
-
-        readers = [n for n, c in controllers.items() if not c["command"] and touches(c)]
-        bystanders = [n for n, c in controllers.items() if not touches(c)]
+        uses = {n: {k.split("/")[0] for k in c["command"] + c["state"]} & mine for n, c in controllers.items()}
+        readers = [n for n, c in controllers.items() if not c["command"] and uses[n]]
+        bystanders = [n for n in controllers if not uses[n]]
         if readers and bystanders:
             return {"controllers": controllers, "failed": failed, "stage": stage, "result": result}
 
@@ -796,6 +788,21 @@ def _load(cm, name, cls, out, key) -> object | None:
     return ctrl
 
 
+def _started(cm, name, cls, out):
+    """(manager, the student's controller loaded and configured as ``name``, or None with out["load"] saying why)."""
+    return cm, _load(cm, name, cls, out, "load")
+
+
+def _record(cm, name, joints, cycles, what=None) -> list:
+    """``cycles`` manager cycles; after each, ``what(cm, joints)`` (default: the joints' position commands)."""
+    rows = []
+    for _ in range(cycles):
+        cm.step()
+        _raise_if_unfinished(cm, name)
+        rows.append((what or _commands)(cm, joints))
+    return rows
+
+
 def _raise_if_unfinished(cm, name) -> None:
     spec = cm.controllers.get(name)
     why = spec.lifecycle.last_exception if spec is not None else None
@@ -816,6 +823,16 @@ def allocation_growth(build, sizes=(2, 34)) -> dict:
         peaks.append(min(r.peak_bytes for r in runs))
         kept = min(r.retained_bytes_per_call for r in runs)
     return {"sizes": list(sizes), "peak_bytes": peaks, "kept_per_call": kept}
+
+
+def allocation_record(build, sizes=(2, 34)):
+    """``allocation_growth(build)`` as a probe records it: the measurement, or why it could not be taken (str)."""
+    try:
+        return allocation_growth(build, sizes)
+    except NotImplementedError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - reported, judged as "could not be measured"
+        return f"{type(exc).__name__}: {exc}"
 
 
 def allocation_verdict(what: str, alloc, bytes_per_joint: int = 8) -> str | None:
@@ -883,8 +900,7 @@ def controller_scenario(inputs, cls) -> dict:
     from robocourse.msgs.std_msgs import Float64MultiArray
 
     joints, out = inputs["joints"], {}
-    cm = _ctrl_manager(inputs)
-    ctrl = _load(cm, CTRL_NAME, cls, out, "load")
+    cm, ctrl = _started(_ctrl_manager(inputs), CTRL_NAME, cls, out)
     if ctrl is None:
         return plain(out)
     for name in ("other", "mover"):
@@ -911,12 +927,7 @@ def controller_scenario(inputs, cls) -> dict:
     pub = _publisher(cm, f"/{CTRL_NAME}/commands", Float64MultiArray)
 
     def record(cycles, what=_commands):
-        rows = []
-        for _ in range(cycles):
-            cm.step()
-            _raise_if_unfinished(cm, CTRL_NAME)
-            rows.append(what(cm, joints))
-        return rows
+        return _record(cm, CTRL_NAME, joints, cycles, what)
 
     out["hold"] = record(20, _positions)                       # 1. activated with no target: nothing moves
     pub.publish(Float64MultiArray(data=list(inputs["target1"])))
@@ -966,10 +977,7 @@ def controller_scenario(inputs, cls) -> dict:
         m.step(2)
         return lambda: c.update(m.time, 0.01)
 
-    try:
-        out["alloc"] = allocation_growth(build)
-    except Exception as exc:  # noqa: BLE001 - reported, judged as "could not be measured"
-        out["alloc"] = f"{type(exc).__name__}: {exc}"
+    out["alloc"] = allocation_record(build)
     return plain(out)
 
 
@@ -1187,8 +1195,7 @@ def limiter_scenario(inputs, cls) -> dict:
     from robocourse.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
 
     joints, out = inputs["joints"], {}
-    cm = _lim_manager(inputs)
-    lim = _load(cm, LIM_NAME, cls, out, "load")
+    cm, lim = _started(_lim_manager(inputs), LIM_NAME, cls, out)
     if lim is None:
         return plain(out)
     out["chainable"] = bool(lim.is_chainable())
@@ -1203,12 +1210,7 @@ def limiter_scenario(inputs, cls) -> dict:
         return [int(ret), cm.last_switch_message.replace("\n", " ") if ret != return_type.OK else ""]
 
     def record(cycles, what=_commands):
-        rows = []
-        for _ in range(cycles):
-            cm.step()
-            _raise_if_unfinished(cm, LIM_NAME)
-            rows.append(what(cm, joints))
-        return rows
+        return _record(cm, LIM_NAME, joints, cycles, what)
 
     out["jtc_alone"] = switch(["jtc"], []) if jtc_ok else [1, "the JTC did not load"]
     out["limiter_alone"] = switch([LIM_NAME], [])
@@ -1259,10 +1261,7 @@ def limiter_scenario(inputs, cls) -> dict:
         m.step(2)
         return lambda: c.update(m.time, 1.0 / inputs["rate"])
 
-    try:
-        out["alloc"] = allocation_growth(build)
-    except Exception as exc:  # noqa: BLE001 - reported, judged as "could not be measured"
-        out["alloc"] = f"{type(exc).__name__}: {exc}"
+    out["alloc"] = allocation_record(build)
     return plain(out)
 
 
@@ -1433,7 +1432,6 @@ def rrbot_with(element: str) -> str:
 
 def _urdf_runtime(urdf: str, inputs) -> dict:
     """Bring the URDF up on mock hardware: the states at start, then joint1 to a position and joint2 at a velocity."""
-    from robocourse.msgs.std_msgs import Float64MultiArray
 
     params = {"controller_manager": {"update_rate": 100,
                                      "j1.type": "position_controllers/JointGroupPositionController",

@@ -9,7 +9,13 @@ shared by the manager, the resource manager, components and controllers, so
 
 from __future__ import annotations
 
-from robocourse.bus.logging import LoggingSeverity, LogRecord, RcutilsLogger, console_line, console_stream
+from robocourse.bus.logging import (
+    LoggingSeverity,
+    LogRecord,
+    RcutilsLogger,
+    console_line,
+    console_stream,
+)
 
 
 class LogSink:

@@ -436,15 +436,18 @@ class RobotSim:
         rot = self.data.xmat[b].reshape(3, 3)
         return float(self.model.body_subtreemass[b]), rot.T @ (self.data.subtree_com[b] - self.data.xpos[b])
 
+    def _geom_id(self, geom: str) -> int:
+        try:
+            return self.model.geom(geom).id
+        except KeyError:
+            raise ValueError(f"no geom {geom!r} in this simulation (a Wall is named 'wall', "
+                             "a GraspObject 'object')") from None
+
     def contact_force(self, geom: str = "wall") -> np.ndarray:
         """Total contact force (N, world frame) that everything touching ``geom`` exerts on it,
         e.g. how hard the gripper pushes on the wall. A new array."""
         mj, m, d = self._mj, self.model, self.data
-        try:
-            gid = m.geom(geom).id
-        except KeyError:
-            raise ValueError(f"no geom {geom!r} in this simulation (a Wall is named 'wall', "
-                             "a GraspObject 'object')") from None
+        gid = self._geom_id(geom)
         total = np.zeros(3)
         for k in range(d.ncon):
             c = d.contact[k]
@@ -458,11 +461,7 @@ class RobotSim:
     def touching(self, geom: str = "wall") -> list[str]:
         """Names of the geoms in contact with ``geom`` now ("left_finger/0", ...), sorted, each once."""
         mj, m, d = self._mj, self.model, self.data
-        try:
-            gid = m.geom(geom).id
-        except KeyError:
-            raise ValueError(f"no geom {geom!r} in this simulation (a Wall is named 'wall', "
-                             "a GraspObject 'object')") from None
+        gid = self._geom_id(geom)
         names = set()
         for k in range(d.ncon):
             c = d.contact[k]
