@@ -1,65 +1,54 @@
-"""Chapter 4's checks against their wrong-answer bank (tests/ch04_bank.py): every wrong answer scores 0 and its
-feedback names the property it breaks, every differently written correct answer and the solution notebook's
-code score full marks; the library's references are refused as delegation; stubs are "not implemented".
-
-One draw per bank entry here (seed 0) and three for the references; benchmarks/ch04_bank_stability.py
-runs every entry on 20 draws, quiet and under chapter 1's CPU load."""
+"""Chapter 4's checks beyond their answer bank (tests/banks/ch04.py, graded by tests/test_banks.py):
+the order of the exercises, the library's own implementations refused as delegation, stubs reported as
+"not implemented", and hostile text refused before anything parses it."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import nbformat
 import numpy as np
 import pytest
-from ch04_bank import BANK, ORDER, SOL, references
 
 import robocourse.control.checks  # noqa: F401  (registers ch04.*)
 from robocourse.control.motor_board import MotorBoardSystem
 from robocourse.grading import exercises
 from robocourse.grading.checks import get, run_check
 
+SOL = Path(__file__).resolve().parents[1] / "solutions/04_ros2_control_exercises.ipynb"
+ORDER = ["ch04.ros2_control_urdf", "ch04.motor_board", "ch04.controllers_yaml", "ch04.read_error", "ch04.controller",
+         "ch04.chainable", "ch04.cubic", "ch04.admittance"]
+
+
+def _solution() -> dict:
+    ns: dict = {}
+    for cell in nbformat.read(SOL, as_version=4).cells:
+        if cell.cell_type == "code" and cell.source.lstrip().startswith(("def ", "class ", "import ")):
+            exec(cell.source.replace("from robocourse.grading import check, score", ""), ns)
+    return ns
+
+
+NS = _solution()
+
 
 def run(name, *objects, seed=0):
     return run_check(get(name), *objects, rng=np.random.default_rng(seed))
 
 
-def test_every_check_of_ch04_is_called_in_the_exercises_and_has_a_bank():
+def test_every_check_of_ch04_is_called_in_the_exercises_in_order():
     assert exercises.checks_in(nbformat.read(SOL, as_version=4)) == ORDER
-    for name in ORDER:
-        wrong = [e for e in BANK[name] if e[3] is not None]
-        right = [e for e in BANK[name] if e[3] is None]
-        assert len(wrong) >= 3 and len(right) >= 1, name
+    assert sum(get(n).weight for n in ORDER) == 23.0
 
 
-@pytest.mark.parametrize("name", ORDER)
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_solutions_score_full_marks(name, seed):
-    r = run(name, references()[name], seed=seed)
-    assert r.passed and r.points == r.weight == get(name).weight, r.message
+def test_the_library_component_is_refused_as_delegation():
+    class Delegates(MotorBoardSystem):
+        pass
 
-
-@pytest.mark.parametrize("name, answer, expected, fragment",
-                         [pytest.param(n, *e[1:], id=f"{n}-{e[0]}") for n in ORDER for e in BANK[n]])
-def test_bank(name, answer, expected, fragment):
-    r = run(name, answer)
-    if fragment is None:
-        assert r.passed and r.points == get(name).weight, r.message
-    else:
-        assert r.points == expected and not r.passed, r.message
-        assert fragment in r.message, r.message
-
-
-# --- refusals: the library's own implementation, and stubs ---------------------------------------------------------
-
-class Delegates(MotorBoardSystem):
-    pass
-
-
-def test_motor_board_reference_is_refused():
     r = run("ch04.motor_board", Delegates)
     assert r.points == 0 and r.reason == "delegated" and "MotorBoardSystem" in r.message
 
 
-def test_controller_reference_is_refused():
+def test_the_judges_reference_controller_is_refused_as_delegation():
     from robocourse.control.checks import _ReferenceSlew
 
     class Mine(_ReferenceSlew):
@@ -69,7 +58,7 @@ def test_controller_reference_is_refused():
     assert r.points == 0 and r.reason == "delegated"
 
 
-def test_cubic_reference_is_refused():
+def test_the_jtc_spline_code_is_refused_as_delegation():
     from robocourse.control.controllers.joint_trajectory_controller.trajectory import (
         Sample,
         Trajectory,
@@ -85,7 +74,7 @@ def test_cubic_reference_is_refused():
     assert r.points == 0 and r.reason == "delegated"
 
 
-def test_read_error_reference_is_refused():
+def test_running_the_manager_to_predict_it_is_refused_as_delegation():
     from robocourse.control.checks import fault_truth
 
     def by_running_it(controllers, hardware, failed, stage, result):
@@ -95,22 +84,23 @@ def test_read_error_reference_is_refused():
     assert r.points == 0 and r.reason == "delegated" and "ControllerManager" in r.message
 
 
-@pytest.mark.parametrize("name", ["ch04.motor_board", "ch04.controller", "ch04.chainable"])
-def test_a_stub_is_not_implemented(name):
-    cls = references()[name]
-    method = {"ch04.motor_board": "read", "ch04.controller": "on_configure",
-              "ch04.chainable": "on_export_reference_interfaces"}[name]
-
+@pytest.mark.parametrize("name, cls, method", [("ch04.motor_board", "BoardSystem", "read"),
+                                               ("ch04.controller", "SlewRateController", "on_configure"),
+                                               ("ch04.chainable", "JointLimiter", "on_export_reference_interfaces")])
+def test_a_stub_is_not_implemented(name, cls, method):
     def stub(self, *args):
         raise NotImplementedError()
 
-    r = run(name, type("Stub", (cls,), {method: stub}))
+    r = run(name, type("Stub", (NS[cls],), {method: stub}))
     assert r.points == 0 and r.reason == "not_implemented", r.message
 
 
-def test_controllers_yaml_not_yaml():
+def test_parameter_text_that_is_not_yaml_or_uses_anchors_is_refused():
     assert "refused the file" in run("ch04.controllers_yaml", lambda: "controller_manager: [unclosed").message
-    assert "must be the YAML text" in run("ch04.controllers_yaml", lambda: 42).message
+    assert "must return the YAML text" in run("ch04.controllers_yaml", lambda: 42).message
+    bomb = "a: &a [x, x]\nb: &b [*a, *a]\ncontroller_manager: {ros__parameters: {update_rate: 200}}\n"
+    r = run("ch04.controllers_yaml", lambda: bomb)
+    assert r.points == 0 and "without anchors, aliases" in r.message
 
 
 def test_urdf_text_too_large_or_with_entities_is_refused_before_parsing():
@@ -118,3 +108,21 @@ def test_urdf_text_too_large_or_with_entities_is_refused_before_parsing():
     assert big.points == 0 and "under 20000 characters" in big.message
     ent = run("ch04.ros2_control_urdf", lambda ip: '<!ENTITY a "b"><ros2_control name="RRBot" type="system"/>')
     assert ent.points == 0 and "<!ENTITY>" in ent.message
+
+
+def test_every_draw_exercises_each_stated_property():
+    """The draws the wrong answers depend on: never sorted joints, never a 100 Hz limiter, never a 0.0 initial
+    position, a ramp long enough to reach the limit, each kind of hardware fault."""
+    from robocourse.control import checks as ck
+
+    for seed in range(40):
+        rng = np.random.default_rng(seed)
+        ctrl = ck._ctrl_inputs(rng)
+        assert ctrl["joints"] != sorted(ctrl["joints"])
+        lim = ck._lim_inputs(rng)
+        assert lim["rate"] != 100
+        reach = (lim["max"][0] - lim["initial"][0]) / lim["max_velocity"]
+        assert lim["phases"][1] / lim["rate"] > reach
+        assert all(abs(v) >= 0.1 for v in ck._urdf_inputs(rng)["initial_positions"].values())
+        kinds = {(s["stage"], s["result"]) for s in ck._fault_inputs(rng)["scenarios"]}
+        assert kinds == {("read", "ERROR"), ("write", "ERROR"), ("write", "DEACTIVATE")}

@@ -66,7 +66,7 @@ SHARED_LINES = {
     '<ros2_control name="RRBot" type="system">': {"lib/robocourse/sim/robots/rrbot.urdf",
                                                   "tests/test_control_hardware.py"},
     "<plugin>mock_components/GenericSystem</plugin>": {
-        "lib/robocourse/control/checks.py", "lib/robocourse/control/hardware/info.py",
+        "lib/robocourse/control/checks.py", "lib/robocourse/control/probes.py", "lib/robocourse/control/hardware/info.py",
         "lib/robocourse/sim/robots/rrbot.urdf", "lib/robocourse/sim/robots/ur5e.urdf", "tests/test_control_manager.py"},
     "wrist_controller: {ros__parameters: {joints: [joint3]}}": {"chapters/04_ros2_control.ipynb"},
 }
