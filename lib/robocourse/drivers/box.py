@@ -14,23 +14,23 @@ import sys
 import threading
 import time
 
-from .franka_protocol import DEFAULT_MAX_MISSED
+from .franka_wire import MAX_LOST_IN_ROW, VERSION
 from .ur_protocol import KEEPALIVE_S
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m robocourse.drivers.box")
     p.add_argument("kind", choices=("franka", "ur"))
-    p.add_argument("--host", default="127.0.0.1")
-    p.add_argument("--port", type=int, default=0, help="franka: UDP port; ur: RTDE port (0 = free)")
+    p.add_argument("--host", default="", help="address to bind (franka default: a free 127.0.0.x; ur: 127.0.0.1)")
+    p.add_argument("--port", type=int, default=0, help="franka: TCP command port (0 = libfranka's 1337); ur: RTDE port (0 = free)")
     p.add_argument("--script-port", type=int, default=0, help="ur: script channel port (0 = free)")
-    p.add_argument("--period-us", type=int, default=1000, help="franka: state period in us")
-    p.add_argument("--max-missed", type=int, default=DEFAULT_MAX_MISSED, help="franka: missed ticks in a row before the reflex")
-    p.add_argument("--client-timeout", type=int, default=100,
-                   help="franka: ticks of silence after which another client may take the slot")
+    p.add_argument("--max-lost", type=int, default=MAX_LOST_IN_ROW,
+                   help="franka: lost command packets in a row before the communication reflex (the robot: 20)")
+    p.add_argument("--server-version", type=int, default=VERSION,
+                   help="franka: the robot server version the box claims (libfranka 0.21 needs 10)")
     p.add_argument("--keepalive", type=float, default=KEEPALIVE_S, help="ur: script keepalive timeout in s")
     p.add_argument("--initial", default="", help="comma-separated initial joint positions (rad)")
-    p.add_argument("--no-physics", action="store_true", help="franka: no arm behind the packets (round-trip floor)")
+    p.add_argument("--no-physics", action="store_true", help="franka: no arm behind the packets (the round-trip floor)")
     p.add_argument("--rt", action="store_true", help="try SCHED_FIFO + mlockall for the box")
     return p
 
@@ -49,15 +49,15 @@ def main(argv=None) -> int:
     try:
         if a.kind == "franka":
             from .franka_box import FrankaBox
+            from .franka_wire import COMMAND_PORT
 
-            box = FrankaBox(port=a.port, host=a.host, period_us=a.period_us, max_missed=a.max_missed,
-                            initial_positions=initial, physics=not a.no_physics,
-                            client_timeout=a.client_timeout)
-            ready = f"READY udp={box.port}"
+            box = FrankaBox(host=a.host or None, command_port=a.port or COMMAND_PORT, initial_positions=initial,
+                            physics=not a.no_physics, max_lost=a.max_lost, server_version=a.server_version)
+            ready = f"READY host={box.host} command={box.command_port} udp={box.udp_port} monitor={box.monitor_port}"
         else:
             from .ur_box import URBox
 
-            box = URBox(port=a.port, script_port=a.script_port, host=a.host, keepalive=a.keepalive,
+            box = URBox(port=a.port, script_port=a.script_port, host=a.host or "127.0.0.1", keepalive=a.keepalive,
                         initial_positions=initial)
             ready = f"READY rtde={box.port} script={box.script_port}"
     except OSError as exc:

@@ -40,8 +40,9 @@ def _die_with_parent() -> None:  # runs in the child between fork and exec
 class BoxProcess:
     """A box process started from ``python -m robocourse.drivers.box KIND ARGS``.
 
-    ``ports``: {"udp": 41234} (Franka style) or {"rtde": ..., "script": ...} (UR style) once
-    started. Use as a context manager or call :meth:`stop`.
+    ``ports``: {"command": 1337, "udp": ..., "monitor": ...} (Franka) or {"rtde": ..., "script": ...}
+    (UR style) once started; ``host``: the address the box bound (a READY line's ``host=``, else
+    127.0.0.1). Use as a context manager or call :meth:`stop`.
     """
 
     def __init__(self, kind: str, args: list[str], startup_timeout: float = 60.0):
@@ -52,6 +53,7 @@ class BoxProcess:
         self.startup_timeout = float(startup_timeout)
         self.proc: subprocess.Popen | None = None
         self.ports: dict[str, int] = {}
+        self.host = "127.0.0.1"
 
     @property
     def pid(self) -> int | None:
@@ -86,7 +88,9 @@ class BoxProcess:
             self.proc = None
             why = err.splitlines()[-1] if err else f"no message, timed out after {self.startup_timeout:.0f} s"
             raise BoxStartError(f"the {self.kind} box did not start (exit code {code}): {why}")
-        self.ports = {k: int(v) for k, v in (kv.split("=") for kv in line.decode().split()[1:])}
+        fields = dict(kv.split("=", 1) for kv in line.decode().split()[1:])
+        self.host = fields.pop("host", self.host)
+        self.ports = {k: int(v) for k, v in fields.items()}
         return self
 
     def alive(self) -> bool:

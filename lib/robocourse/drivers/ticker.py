@@ -20,6 +20,7 @@ class TickingBox:
         self.counters = collections.Counter()
         self.running = True
         self.t0_ns = time.monotonic_ns()
+        self.tick_index = 0
 
     def sockets(self) -> list:
         raise NotImplementedError
@@ -42,8 +43,12 @@ class TickingBox:
                 for s in readable:
                     self.on_readable(s)
             self.tick()
+            self.tick_index += 1
             next_t += period
             behind = time.monotonic_ns() - next_t
             if behind > 0:
                 self.counters["box_overruns"] += 1
-                next_t += (behind // period + 1) * period
+                skipped = behind // period + 1
+                self.counters["box_ticks_skipped"] += skipped
+                self.tick_index += skipped
+                next_t += skipped * period
