@@ -1,9 +1,10 @@
 """robocourse.drivers: simulated arm controller boxes over real sockets, their clients and SystemInterfaces.
 
-Counterparts: a Franka FR3 as libfranka sees it (its robot server, version 10: pylibfranka
-drives :func:`start_franka_box` unchanged, and franka_hardware's SystemInterface runs on
-pylibfranka) and ur_rtde + ur_robot_driver (an asynchronous 500 Hz RTDE stream plus servoj
-targets, around the UR5e in MuJoCo). Each box runs in its own process.
+Counterparts: a Franka FR3 as libfranka sees it (its robot server, version 10: pylibfranka from
+PyPI drives :func:`start_franka_box` unchanged, and franka_hardware's SystemInterface runs on
+pylibfranka) and a UR e-Series controller for ur_rtde + ur_robot_driver (RTDE at 500 Hz, the
+dashboard server, the script ports: ur_rtde from PyPI drives it unchanged). Each box runs in its
+own process on its own loopback address.
 Importing this package declares the hardware plugins ``robocourse/FrankaStyleSystem`` and
 ``robocourse/URStyleSystem`` with :mod:`robocourse.control.pluginlib`.
 """
@@ -13,7 +14,6 @@ from __future__ import annotations
 from robocourse.control import pluginlib as _pluginlib
 
 from . import franka_wire as _fw
-from . import ur_protocol as _up
 from .arm import ARM_JOINTS
 from .description import CONTROLLERS_YAML, FR3_CONTROLLERS_YAML, arm_urdf, fr3_urdf
 from .fr3_arm import FR3_JOINTS
@@ -21,7 +21,7 @@ from .process import BoxProcess, BoxStartError
 
 _pluginlib.register("robocourse/FrankaStyleSystem", "robocourse.drivers.franka_system:FrankaStyleSystem",
                     _pluginlib.HARDWARE_BASE)
-_pluginlib.register("robocourse/URStyleSystem", "robocourse.drivers.systems:URStyleSystem",
+_pluginlib.register("robocourse/URStyleSystem", "robocourse.drivers.ur_system:URStyleSystem",
                     _pluginlib.HARDWARE_BASE)
 
 
@@ -69,10 +69,24 @@ def box_stats(box: BoxProcess, timeout: float = 1.0) -> dict:
     raise TimeoutError(f"the Franka box at {box.host} did not answer its monitor within {timeout} s (is it running?)")
 
 
-def start_ur_box(rtde_port: int = 0, script_port: int = 0, keepalive: float = _up.KEEPALIVE_S, initial_positions=None,
-                 realtime: bool = False) -> BoxProcess:
-    """Start a UR-style box process; ``box.ports["rtde"]`` and ``box.ports["script"]`` are its ports."""
-    args = ["--port", rtde_port, "--script-port", script_port, "--keepalive", keepalive]
+def start_ur_box(host: str | None = None, initial_positions=None, realtime: bool = False, physics: bool = True,
+                 powered: bool = True, unlock_delay: float | None = None) -> BoxProcess:
+    """Start a UR-style box process (a UR e-Series controller for ur_rtde); ``box.host`` is its
+    address, where it listens on UR's ports (``box.ports``: RTDE 30004, dashboard 29999, script
+    ports 30001-30003). ``host``: None picks a free loopback address 127.0.0.x, so several boxes
+    (and other people's tests) run side by side. Stop it with ``box.stop()``.
+
+    ``physics=False``: the same protocol and timing with no arm behind it (a benchmark's floor).
+    ``powered=False``: starts in POWER_OFF (dashboard ``power on``, ``brake release``).
+    ``unlock_delay``: seconds before a protective stop may be unlocked (UR's 5 by default).
+    """
+    args = [] if host is None else ["--host", host]
+    if not physics:
+        args.append("--no-physics")
+    if not powered:
+        args.append("--power-off")
+    if unlock_delay is not None:
+        args += ["--unlock-delay", float(unlock_delay)]
     if initial_positions is not None:
         args += ["--initial", ",".join(repr(float(x)) for x in initial_positions)]
     if realtime:

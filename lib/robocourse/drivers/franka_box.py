@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import collections
 import json
-import random
 import socket
 import time
 from dataclasses import dataclass, field
@@ -52,6 +51,7 @@ import numpy as np
 
 from . import franka_wire as fw
 from .fr3_arm import FR3Arm, NullArm
+from .loopback import bind_all, bind_free_loopback
 from .ticker import TickingBox
 
 _RING = 1 << 15
@@ -59,31 +59,6 @@ _MAX_MESSAGE = 1 << 16
 #: round-trip histogram bin edges in us, log-spaced 10 us .. 100 ms
 RTT_HIST_EDGES_US = tuple(float(x) for x in np.geomspace(10.0, 100_000.0, 49))
 _IDENTITY = np.eye(4).ravel()   # column-major identity
-
-
-def bind_loopback(port: int = fw.COMMAND_PORT, host: str | None = None) -> socket.socket:
-    """A listening TCP socket on ``port`` of a free loopback address 127.0.0.x (x = 2..254, tried
-    from a random start), or of ``host`` if given. libfranka's port is fixed, so each simulated
-    robot needs an address of its own; the kernel refuses a second listener, so two boxes
-    started at once never share one."""
-    candidates = [host] if host else [f"127.0.0.{x}" for x in range(2, 255)]
-    if not host:
-        start = random.SystemRandom().randrange(len(candidates))
-        candidates = candidates[start:] + candidates[:start]
-    last = None
-    for addr in candidates:
-        s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)   # a TIME_WAIT leftover is no owner
-        try:
-            s.bind((addr, port))
-            s.listen(8)
-        except OSError as exc:
-            s.close()
-            last = exc
-            continue
-        s.setblocking(False)
-        return s
-    raise OSError(f"no free loopback address for TCP port {port} (tried {len(candidates)}; last error: {last})")
 
 
 @dataclass
@@ -147,16 +122,17 @@ class FrankaBox(TickingBox):
         self.arm = (FR3Arm if physics else NullArm)(timestep=0.001, initial_positions=initial_positions)
         self.max_lost = max_lost
         self.server_version = int(server_version)
-        self.listener = bind_loopback(command_port, host)
-        self.host = self.listener.getsockname()[0]
+        # libfranka's command port is fixed: the box takes a loopback address of its own (the
+        # UDP ports are the box's choice: libfranka answers to where the states come from)
+        ports = [(command_port, socket.SOCK_STREAM), (0, socket.SOCK_DGRAM), (0, socket.SOCK_DGRAM)]
+        if host:
+            socks = bind_all(host, ports)
+        else:
+            host, socks = bind_free_loopback(ports)
+        self.listener, self.udp, self.monitor = socks
+        self.host = host
         self.command_port = self.listener.getsockname()[1]
-        self.udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.udp.bind((self.host, 0))
-        self.udp.setblocking(False)
         self.udp_port = self.udp.getsockname()[1]
-        self.monitor = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.monitor.bind((self.host, 0))
-        self.monitor.setblocking(False)
         self.monitor_port = self.monitor.getsockname()[1]
         self.urdf = urdf_path("fr3").read_bytes()   # what GetRobotModel serves
         self.conns: dict[socket.socket, _Conn] = {}

@@ -1,29 +1,17 @@
-"""``robocourse/URStyleSystem``, and what it shares with ``robocourse/FrankaStyleSystem``.
+"""What the box drivers share under ros2_control: ``_BoxSystem``.
 
-Counterpart: ur_robot_driver's ``URPositionHardwareInterface`` (read() takes the newest RTDE
-package; write() streams the position command as a servoj target; the robot runs on its own).
-It serves the six UR5e arm joints with ``position`` / ``velocity`` / ``effort`` state interfaces
-and commands ``position``. ``_BoxSystem`` (params, the box a component owns, slots, command mode
-switching) is shared with :mod:`robocourse.drivers.franka_system` (franka_hardware on pylibfranka).
-
-Hardware ``<param>``s (strings, all optional):
-
-- ``host`` (127.0.0.1); ``rtde_port`` + ``script_port``: the box to connect to. Missing or 0:
-  the component starts its own box process in on_configure and stops it in
-  on_cleanup/on_shutdown (``self.box``).
-- ``servoj_time`` (0.002), ``servoj_lookahead_time`` (0.03), ``servoj_gain`` (2000)
-  (ur_robot_driver's defaults), ``keepalive`` s (0.1, for a box it starts), ``read_timeout``
-  s (0.1).
-
-Errors: read() returns ERROR (and ``self.last_error`` says why, logged once outside the
-loop's hot path) when the box stops sending or its process dies. The controller manager then
-deactivates the controllers using the arm.
+The base of ``robocourse/FrankaStyleSystem`` (:mod:`robocourse.drivers.franka_system`,
+franka_hardware on pylibfranka) and ``robocourse/URStyleSystem`` (:mod:`robocourse.drivers.ur_system`,
+ur_robot_driver on ur_rtde): the joints a driver serves (``JOINTS``), numeric params checked
+with the rule in the error, the box process a component owns (started in on_configure when no
+robot address is given, stopped in on_cleanup/on_shutdown), state/command slots, one command
+mode for all joints at a time, and errors: read()/write() record why they failed
+(``self.last_error``), on_error logs it once outside the hot path and disconnects.
 """
 
 from __future__ import annotations
 
 import math
-import time as _time
 
 import numpy as np
 
@@ -179,92 +167,3 @@ class _BoxSystem(SystemInterface):
             fill = self.state_values[self._state_slots[0]] if self.active_mode == "position" else 0.0
             np.copyto(cmd, fill, where=np.isnan(cmd))
         return cmd
-
-
-class URStyleSystem(_BoxSystem):
-    """robocourse/URStyleSystem (see the module docstring)."""
-
-    KIND = "ur"
-    COMMAND_MODES = ("position",)
-    SUPPORTED_COMMAND_INTERFACES = COMMAND_MODES
-
-    def __init__(self, box: BoxProcess | None = None):
-        super().__init__(box)
-        self.rtde = None
-        self.control = None
-
-    def _read_params(self) -> None:
-        from . import ur_protocol as up
-
-        p = self.info.hardware_parameters
-        self.host = p.get("host", "127.0.0.1")
-        self.rtde_port = int(self._param("rtde_port", 0, 0, 65535))
-        self.script_port = int(self._param("script_port", 0, 0, 65535))
-        self.servoj_time = self._param("servoj_time", 0.002, *up.SERVOJ_T)
-        self.lookahead = self._param("servoj_lookahead_time", 0.03, *up.LOOKAHEAD)
-        self.gain = self._param("servoj_gain", 2000.0, *up.GAIN)
-        self.keepalive = self._param("keepalive", up.KEEPALIVE_S, 0.004, 10.0)
-
-    def on_configure(self, previous_state):
-        from .ur_client import RTDEControlInterface, RTDEError, RTDEReceiveInterface
-
-        self._slots()
-        rtde_port, script_port = self.rtde_port, self.script_port
-        if rtde_port == 0 or script_port == 0:
-            if self.box is None or not self.box.alive():
-                if not self._start_box(["--keepalive", str(self.keepalive)]):
-                    return CallbackReturn.FAILURE
-            rtde_port, script_port = self.box.ports["rtde"], self.box.ports["script"]
-        try:
-            if self.rtde is None:
-                self.rtde = RTDEReceiveInterface(self.host, rtde_port, 500.0,
-                                                 ("actual_q", "actual_qd", "actual_joint_torques", "runtime_state"))
-            if self.control is None:
-                self.control = RTDEControlInterface(self.host, script_port)
-        except RTDEError as exc:
-            self.get_logger().error(str(exc))
-            self._disconnect()
-            return CallbackReturn.FAILURE
-        if not self.rtde.receive(self.read_timeout * 10):
-            self.get_logger().error(f"no RTDE package from the UR-style box at {self.host}:{rtde_port}")
-            return CallbackReturn.FAILURE
-        v = self.rtde.values
-        self._copy_states(v["actual_q"], v["actual_qd"], v["actual_joint_torques"])
-        return CallbackReturn.SUCCESS
-
-    def _disconnect(self) -> None:
-        for c in (self.rtde, self.control):
-            if c is not None:
-                c.close()
-        self.rtde = self.control = None
-
-    def _stop_motion(self) -> None:
-        if self.control is not None:
-            try:
-                self.control.servoStop()
-            except ConnectionError:
-                pass
-
-    # --- hot path ----------------------------------------------------------------------------------
-    def read(self, time, period):
-        r = self.rtde
-        if r is None:
-            return self.fail("not connected to the box")
-        r.receive(0.0)
-        if r.closed_by_peer:
-            return self.fail("the box closed the RTDE connection (process gone?)")
-        if _time.monotonic() - r.last_receive > self.read_timeout:
-            return self.fail(f"no RTDE package for {self.read_timeout * 1e3:.0f} ms")
-        v = r.values
-        self._copy_states(v["actual_q"], v["actual_qd"], v["actual_joint_torques"])
-        return return_type.OK
-
-    def write(self, time, period):
-        if self.active_mode is None:
-            return return_type.OK
-        try:
-            self.control.servoJ(self._commands(), time=self.servoj_time, lookahead_time=self.lookahead,
-                                gain=self.gain)
-        except ConnectionError as exc:
-            return self.fail(str(exc))
-        return return_type.OK
