@@ -25,7 +25,7 @@ _pluginlib.register("robocourse/URStyleSystem", "robocourse.drivers.ur_system:UR
                     _pluginlib.HARDWARE_BASE)
 
 
-def start_franka_box(max_lost: int = _fw.MAX_LOST_IN_ROW, initial_positions=None, realtime: bool = False,
+def start_franka_box(max_lost: int = _fw.MAX_LOST_IN_ROW, initial_positions=None, realtime: bool = True,
                      physics: bool = True, host: str | None = None, server_version: int = _fw.VERSION) -> BoxProcess:
     """Start a simulated FR3 (libfranka's robot server) in its own process on a free loopback address.
 
@@ -33,7 +33,9 @@ def start_franka_box(max_lost: int = _fw.MAX_LOST_IN_ROW, initial_positions=None
     ``box.host`` is the 127.0.0.x it bound (TCP 1337 is fixed by libfranka, so each box has its
     own address); ``box.ports`` = {"command", "udp", "monitor"}; stop it with ``box.stop()``.
     ``max_lost``: lost command packets in a row before the communication reflex (the robot's
-    20). ``realtime``: the box tries SCHED_FIFO + locked memory (carries on if refused).
+    20). ``realtime`` (on by default: the robot's controller is a real-time computer): the box
+    tries SCHED_FIFO + locked memory and carries on if refused (an unprivileged user's box then
+    competes with everything else, and skips ticks when starved: it counts them).
     ``physics=False``: the same packets and timing with no arm behind them (the floor).
     ``server_version``: the version it claims in Connect (10 for libfranka 0.21; another one
     shows the client's version check).

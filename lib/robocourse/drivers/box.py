@@ -83,7 +83,7 @@ def main(argv=None) -> int:
     if a.rt:       # settings first (prefaulting the heap takes a while), then READY: a client never waits on them
         from robocourse.rt import settings
 
-        with settings.realtime(quiet=True, heap_size=16 * 1024 * 1024):
+        with settings.realtime(quiet=True, heap_size=4 * 1024 * 1024):
             print(ready, flush=True)
             box.run()
     else:

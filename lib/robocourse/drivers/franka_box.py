@@ -27,9 +27,11 @@ waits for a response (pitfall C8), so a server thread inside the client's proces
   (..._acceleration_discontinuity), a torque rate above 1000 N m/s
   (controller_torque_discontinuity); a non-finite command is treated as a position-limit
   violation. Derivatives are divided differences on the robot's clock (the ``message_id`` each
-  command answers). Ours, not the robot's: after a tick the box itself skipped, the
-  acceleration and jerk checks of the next 3 commands are suspended (``checks_suspended``): the
-  gap is the box's, not the client's. Not modelled: collisions, Cartesian motion generators (rejected, "command not
+  command answers; one per millisecond: a tick the box itself skipped is bridged by the same
+  extrapolation as a lost packet, so ``q_d`` of the state is always the command of the previous
+  millisecond). Ours, not the robot's: after a tick the box itself skipped, the acceleration and
+  jerk checks of the next 3 commands are suspended (``checks_suspended``): the gap is the box's,
+  not the client's. Not modelled: collisions, Cartesian motion generators (rejected, "command not
   possible"), guiding mode, the gripper.
 - Malformed input is counted and survived: a UDP datagram of the wrong length, for a state never
   sent, or from an address that holds no motion; a TCP message with a size or command libfranka
@@ -483,10 +485,11 @@ class FrankaBox(TickingBox):
             self.counters["motions_finished"] += 1
             self._end_motion(fw.MOVE_SUCCESS)
 
-    def _extrapolate(self) -> None:
-        """A lost packet: the motion extrapolated at constant acceleration, the torque reused."""
+    def _extrapolate(self, stamp: int) -> None:
+        """A lost packet (the command for state ``stamp`` never came, or the box skipped that
+        tick): the motion extrapolated at constant acceleration, the torque reused."""
         m, arm = self.motion, self.arm
-        t = self.message_id * 1e-3
+        t = stamp * 1e-3
         if m.generator == fw.GEN_JOINT_POSITION:
             q = np.clip(m.q.extrapolate(t), arm.limits_low, arm.limits_high)
             v, a, _ = m.q.derivatives(q, t)
@@ -521,7 +524,7 @@ class FrankaBox(TickingBox):
                 if self.lost_in_row >= self.max_lost:
                     self._reflex(fw.ERR_COMMUNICATION_CONSTRAINTS_VIOLATION)
                 else:
-                    self._extrapolate()
+                    self._extrapolate(self.message_id)
         else:
             self.pending = None
             if self.motion is None:
@@ -531,7 +534,11 @@ class FrankaBox(TickingBox):
         if steps > 1 and self.motion is not None:
             self._suspend_checks = 3
         try:
-            self.arm.step(steps)
+            self.arm.step(1)
+            for k in range(1, steps):      # ticks the box skipped: no state went out, so no command
+                if self.motion is not None:   # could come; the robot's rule for a missing one applies
+                    self._extrapolate(self.message_id + k)
+                self.arm.step(1)
         except ValueError:
             c["rejected_nonfinite"] += 1
             self.arm.hold()

@@ -59,7 +59,6 @@ class FrankaStyleSystem(_BoxSystem):
         self.robot = None
         self.control = None
         self._limiter = None
-        self._period = 1e-3
 
     def _read_params(self) -> None:
         p = self.info.hardware_parameters
@@ -147,6 +146,7 @@ class FrankaStyleSystem(_BoxSystem):
                             "effort": self.robot.start_torque_control}[self.active_mode]()
             self._state, _ = self.control.readOnce()
             self._limiter = _RateLimiter(self.active_mode)
+            self.control.writeOnce(self._command())     # answer at once: the robot counts from its first state
         except (pylibfranka.FrankaException, RuntimeError) as exc:
             self.get_logger().error(f"FrankaStyleSystem: starting {self.active_mode} control failed: {exc}")
             self.control = None
@@ -159,7 +159,7 @@ class FrankaStyleSystem(_BoxSystem):
 
         values = self._commands()
         if self.limit_rate and self.active_mode in ("position", "velocity"):
-            values = self._limiter.limit(values, self._state, self._period)
+            values = self._limiter.limit(values, self._state)
         values = values.tolist()
         cmd = {"position": pylibfranka.JointPositions, "velocity": pylibfranka.JointVelocities,
                "effort": pylibfranka.Torques}[self.active_mode](values) if self.active_mode else None
@@ -182,8 +182,7 @@ class FrankaStyleSystem(_BoxSystem):
             return self.fail(f"the Franka box process (pid {self.box.pid}) is gone")
         try:
             if self.control is not None:
-                state, period = self.control.readOnce()
-                self._period = period.to_sec()
+                state = self.control.readOnce()[0]
             else:
                 state = self.robot.read_once()
         except (pylibfranka.FrankaException, RuntimeError) as exc:   # ControlException, NetworkException
@@ -229,8 +228,8 @@ class _RateLimiter:
         self.amax, self.jmax = 0.95 * fw.MAX_JOINT_ACCELERATION, 0.95 * fw.MAX_JOINT_JERK
         self.mode = mode
 
-    def limit(self, desired: np.ndarray, state, dt: float) -> np.ndarray:
-        dt, wn = max(dt, 1e-3), self.WN
+    def limit(self, desired: np.ndarray, state) -> np.ndarray:
+        dt, wn = 1e-3, self.WN
         v, a = np.asarray(state.dq_d, dtype=float), np.asarray(state.ddq_d, dtype=float)
         if self.mode == "position":
             x = np.asarray(state.q_d, dtype=float)
