@@ -88,8 +88,6 @@ KNOWN_VIOLATIONS: dict[str, list[str]] = {
     ],
     'chapters/05_hardware_drivers.ipynb': [
         '| transport | UDP, 1 kHz, synchronous | TCP: RTDE state stream 500 Hz + servoj targets |',
-        'An FPRD (configured-address read, command 4) of 2 bytes at register 0x0130 (AL status) of the slave with station address 0x1001: cmd, idx, ADP, ADO, length/flags, IRQ, data, working counter, all little-endian.',
-        '### 2.5 PDO mapping, then 1 kHz process data',
     ],
     'chapters/06_policy_deployment.ipynb': [
         'The M12.9 "CRISP" deployment runs a learned policy **slowly** (50 Hz) outside the real-time thread and a ``ForwardCommandController`` **fast** (500 Hz) inside ros2_control\'s loop, repeating the newest action in between.',
