@@ -12,26 +12,28 @@ waits for a response (pitfall C8), so a server thread inside the client's proces
 - UDP: every 1 ms tick a 1377-byte RobotState to each connected client (``message_id`` = ms since
   the box started), and the 371-byte RobotCommand answers. A command echoing the state of tick k
   that arrives before tick k+1 is applied at k+1; otherwise the packet is *lost* for that tick
-  (a motion command is extrapolated at constant acceleration, a torque command reused, as the
-  robot does); a command for an older state is *late* (counted, discarded). ``MAX_LOST_IN_ROW``
+  (a motion command is extrapolated, a torque command reused, as the robot does; the robot
+  documents constant acceleration, ours continues at the last commands' mean velocity: see
+  ``_Track``); a command for an older state is *late* (counted, discarded). ``MAX_LOST_IN_ROW``
   (20) lost in a row: the communication_constraints_violation reflex, the brakes close, the
   client's Move ends with ReflexAborted, and only AutomaticErrorRecovery clears it.
 - ``control_command_success_rate``: the share of the last 100 states sent during the motion that
   got their command in time (0 when no motion runs). A tick the box itself could not keep (its
-  process was descheduled: ``box_overruns``) sends no state, so it is not counted against the
-  client; ``message_id`` then jumps by the milliseconds that passed, as time did.
+  process was descheduled: ``box_ticks_skipped``) sends no state and is not counted against the
+  client; nor is it made up, and a tick that runs late re-phases the schedule so the client
+  always has a whole millisecond to answer (``box_late_ticks``): the simulated robot's clock (``message_id``, ms) and its physics
+  advance one millisecond per state sent, so a starved box runs slower than wall time (robot
+  ms per wall s shows it) but never shows the client a gap the robot would not have had.
 - Checks with libfranka's error names (each a reflex, as on the robot): a commanded joint
   position outside the URDF limits (joint_motion_generator_position_limits_violation), a
-  commanded velocity above q̇max (..._velocity_limits_violation), a commanded acceleration above
-  10 rad/s² (..._velocity_discontinuity), a commanded jerk above 5000 rad/s³
-  (..._acceleration_discontinuity), a torque rate above 1000 N m/s
-  (controller_torque_discontinuity); a non-finite command is treated as a position-limit
+  commanded velocity above q̇max (..._velocity_limits_violation), a torque rate above twice
+  1000 N m/s (controller_torque_discontinuity). The acceleration and jerk reflexes
+  (..._velocity_discontinuity, ..._acceleration_discontinuity) exist but are off by default
+  (``franka_wire.DISCONTINUITY_MARGIN``: libfranka's own stamping makes a correct but busy
+  client look discontinuous by a millisecond); a non-finite command is treated as a position-limit
   violation. Derivatives are divided differences on the robot's clock (the ``message_id`` each
-  command answers; one per millisecond: a tick the box itself skipped is bridged by the same
-  extrapolation as a lost packet, so ``q_d`` of the state is always the command of the previous
-  millisecond). Ours, not the robot's: after a tick the box itself skipped, the acceleration and
-  jerk checks of the next 3 commands are suspended (``checks_suspended``): the gap is the box's,
-  not the client's. Not modelled: collisions, Cartesian motion generators (rejected, "command not
+  command answers), so ``q_d``, ``dq_d``, ``ddq_d`` of a state are the command of the previous
+  millisecond and its derivatives. Not modelled: collisions, Cartesian motion generators (rejected, "command not
   possible"), guiding mode, the gripper.
 - Malformed input is counted and survived: a UDP datagram of the wrong length, for a state never
   sent, or from an address that holds no motion; a TCP message with a size or command libfranka
@@ -57,6 +59,10 @@ from .loopback import bind_all, bind_free_loopback
 from .ticker import TickingBox
 
 _RING = 1 << 15
+#: the thresholds of the discontinuity reflexes (published limits x our margin, see franka_wire)
+_ACC = fw.MAX_JOINT_ACCELERATION * fw.DISCONTINUITY_MARGIN
+_JERK = fw.MAX_JOINT_JERK * fw.DISCONTINUITY_MARGIN
+_TORQUE_RATE = fw.MAX_TORQUE_RATE * fw.TORQUE_RATE_MARGIN
 _MAX_MESSAGE = 1 << 16
 #: round-trip histogram bin edges in us, log-spaced 10 us .. 100 ms
 RTT_HIST_EDGES_US = tuple(float(x) for x in np.geomspace(10.0, 100_000.0, 49))
@@ -73,8 +79,11 @@ class _Conn:
 
 class _Track:
     """The last four samples of a commanded signal with their times (s): its derivatives by
-    divided differences (the spacing is 1 ms, more after a tick the box itself skipped) and the
-    constant-acceleration extrapolation the robot uses for a lost packet."""
+    divided differences, and the extrapolation for a lost packet. The robot documents constant
+    acceleration; ours continues at the mean velocity of the last three commands, because
+    libfranka stamps a command with the newest state it has received, so a busy client's command
+    can land a millisecond late, and an acceleration estimated from such a zig-zag runs the
+    extrapolation away within a few lost cycles."""
 
     def __init__(self, x: np.ndarray, t: float):
         self.t = [t, t - 1e-3, t - 2e-3, t - 3e-3]
@@ -91,15 +100,13 @@ class _Track:
         self.t = [t, *self.t[:3]]
         self.x = [x, *self.x[:3]]
 
-    def extrapolate(self, t: float, order: int = 2) -> np.ndarray:
-        (t0, t1, t2), (x0, x1, x2) = self.t[:3], self.x[:3]
-        v = (x0 - x1) / (t0 - t1)
+    def extrapolate(self, t: float, order: int = 1) -> np.ndarray:
+        """The value at ``t`` continued from the last samples: ``order`` 0 holds, 1 continues at
+        the mean velocity of the last three samples."""
+        (t0, _t1, t2), (x0, _x1, x2) = self.t[:3], self.x[:3]
         if order == 0:
             return x0.copy()
-        if order == 1:
-            return x0 + v * (t - t0)
-        a = (v - (x1 - x2) / (t1 - t2)) / (t0 - t2)
-        return x0 + v * (t - t0) + a * (t - t0) * (t - t1)
+        return x0 + (x0 - x2) / (t0 - t2) * (t - t0)
 
 
 @dataclass
@@ -111,9 +118,11 @@ class _Motion:
     q: _Track                         # commanded positions (joint position generator)
     dq: _Track                        # commanded velocities (joint velocity generator)
     tau: _Track                       # commanded torques (external controller)
+    received: tuple | None = None     # (t, q_c) of the last position command that came (not extrapolated)
 
 
 class FrankaBox(TickingBox):
+    rephase = True       # a late tick still leaves the client a whole millisecond to answer
     def __init__(self, host: str | None = None, command_port: int = fw.COMMAND_PORT, initial_positions=None,
                  physics: bool = True, max_lost: int = fw.MAX_LOST_IN_ROW, server_version: int = fw.VERSION):
         super().__init__()
@@ -150,13 +159,13 @@ class FrankaBox(TickingBox):
         self.max_lost_in_row = 0
         self._buf = bytearray(65536)
         self._last_state_moving = False       # was the newest state sent during a motion?
+        self._last_command_ns = time.monotonic_ns()   # when the last command of the motion came
         self._sent_ns = np.zeros(_RING, dtype=np.int64)
         self.rtt_ns = np.zeros(_RING, dtype=np.int64)
         self.rtt_count = 0
         n = 7
         self.q_d, self.dq_d, self.ddq_d = self.arm.q.copy(), np.zeros(n), np.zeros(n)
         self.tau_J_d, self.dtau_J = np.zeros(n), np.zeros(n)
-        self._suspend_checks = 0          # commands left whose discontinuity checks a box overrun suspended
         self.prev_tau = np.zeros(n)
         self.NE_T_EE, self.EE_T_K = _IDENTITY.copy(), _IDENTITY.copy()
         self.load = (0.0, np.zeros(3), np.zeros(9))
@@ -351,6 +360,7 @@ class FrankaBox(TickingBox):
         self.window.clear()
         self.lost_in_row = 0
         self.pending = None
+        self._last_command_ns = time.monotonic_ns()
         self.counters["motions"] += 1
         self.arm.set_mode("effort" if self.controller == fw.CTRL_EXTERNAL else
                           ("velocity" if self.generator == fw.GEN_JOINT_VELOCITY else "position"))
@@ -418,6 +428,7 @@ class FrankaBox(TickingBox):
             if self.pending is not None:
                 c["duplicates"] += 1
             self.pending = fw.COMMAND.unpack_from(self._buf)
+            self._last_command_ns = time.monotonic_ns()
 
     def _serve_monitor(self) -> None:
         while True:
@@ -443,9 +454,14 @@ class FrankaBox(TickingBox):
             if not np.all(np.isfinite(q)) or np.any(q < arm.limits_low) or np.any(q > arm.limits_high):
                 return self._reflex(fw.ERR_JOINT_MG_POSITION_LIMITS, detail=f"q_c {np.round(q, 4).tolist()}")
             v, a, j = m.q.derivatives(q, t)
-            checks = ((fw.ERR_JOINT_MG_VELOCITY_LIMITS, v, arm.velocity_limits, "velocity rad/s"),
-                      (fw.ERR_JOINT_MG_VELOCITY_DISCONTINUITY, a, fw.MAX_JOINT_ACCELERATION, "acceleration rad/s^2"),
-                      (fw.ERR_JOINT_MG_ACCELERATION_DISCONTINUITY, j, fw.MAX_JOINT_JERK, "jerk rad/s^3"))
+            # the velocity limit against the last command that came, over the time between them:
+            # after lost cycles the robot's own extrapolation is not the client's motion
+            t_rx, q_rx = m.received if m.received is not None else (m.q.t[0], m.q.x[0])
+            v_rx = (q - q_rx) / max(t - t_rx, 1e-3)
+            m.received = (t, q)
+            checks = ((fw.ERR_JOINT_MG_VELOCITY_LIMITS, v_rx, arm.velocity_limits, "velocity rad/s"),
+                      (fw.ERR_JOINT_MG_VELOCITY_DISCONTINUITY, a, _ACC, "acceleration rad/s^2"),
+                      (fw.ERR_JOINT_MG_ACCELERATION_DISCONTINUITY, j, _JERK, "jerk rad/s^3"))
             m.q.push(q, t)
             arm.cmd[:] = q
             self.q_d[:], self.dq_d[:], self.ddq_d[:] = q, v, a
@@ -455,8 +471,8 @@ class FrankaBox(TickingBox):
                 return self._reflex(fw.ERR_JOINT_MG_VELOCITY_LIMITS, detail=f"dq_c {dq.tolist()}")
             a, j, _ = m.dq.derivatives(dq, t)
             checks = ((fw.ERR_JOINT_MG_VELOCITY_LIMITS, dq, arm.velocity_limits, "velocity rad/s"),
-                      (fw.ERR_JOINT_MG_VELOCITY_DISCONTINUITY, a, fw.MAX_JOINT_ACCELERATION, "acceleration rad/s^2"),
-                      (fw.ERR_JOINT_MG_ACCELERATION_DISCONTINUITY, j, fw.MAX_JOINT_JERK, "jerk rad/s^3"))
+                      (fw.ERR_JOINT_MG_VELOCITY_DISCONTINUITY, a, _ACC, "acceleration rad/s^2"),
+                      (fw.ERR_JOINT_MG_ACCELERATION_DISCONTINUITY, j, _JERK, "jerk rad/s^3"))
             m.dq.push(dq, t)
             arm.cmd[:] = dq
             self.dq_d[:], self.ddq_d[:] = dq, a
@@ -468,19 +484,20 @@ class FrankaBox(TickingBox):
             if not np.all(np.isfinite(tau)):
                 return self._reflex(fw.ERR_CONTROLLER_TORQUE_DISCONTINUITY, detail=f"tau_J_d {tau.tolist()}")
             rate = m.tau.derivatives(tau, t)[0]
-            checks += ((fw.ERR_CONTROLLER_TORQUE_DISCONTINUITY, rate, fw.MAX_TORQUE_RATE, "torque rate N m/s"),)
+            checks += ((fw.ERR_CONTROLLER_TORQUE_DISCONTINUITY, rate, _TORQUE_RATE, "torque rate N m/s"),)
             m.tau.push(tau, t)
             self.dtau_J[:] = rate
             self.tau_J_d[:] = tau
             np.clip(tau + arm.gravity(), -arm.effort_limits, arm.effort_limits, out=arm.cmd)
             self.q_d[:] = arm.q
-        if self._suspend_checks:
-            self._suspend_checks -= 1
-            self.counters["checks_suspended"] += 1
-            checks = checks[:1]         # limits stay; derivatives across the box's own gap are not the client's
         for err, x, lim, what in checks:
             if np.any(np.abs(x) > lim):
-                return self._reflex(err, detail=f"commanded {what} {np.round(x, 3).tolist()} (limit {lim})")
+                j = int(np.argmax(np.abs(x) / lim))
+                track = m.q if m.generator == fw.GEN_JOINT_POSITION else (m.dq if m.generator == fw.GEN_JOINT_VELOCITY
+                                                                           else m.tau)
+                history = ", ".join(f"{1e3 * tk:.0f} ms: {xk[j]:.7f}" for tk, xk in zip(track.t, track.x))
+                return self._reflex(err, detail=f"commanded {what} {np.round(x, 3).tolist()} (limit {lim}); joint "
+                                                f"{j + 1}'s commands, newest first: {history}")
         if cmd[fw.CMD_MOTION_FINISHED] or cmd[fw.CMD_TORQUE_FINISHED]:
             self.counters["motions_finished"] += 1
             self._end_motion(fw.MOVE_SUCCESS)
@@ -491,7 +508,7 @@ class FrankaBox(TickingBox):
         m, arm = self.motion, self.arm
         t = stamp * 1e-3
         if m.generator == fw.GEN_JOINT_POSITION:
-            q = np.clip(m.q.extrapolate(t), arm.limits_low, arm.limits_high)
+            q = np.clip(m.q.extrapolate(t, order=1), arm.limits_low, arm.limits_high)
             v, a, _ = m.q.derivatives(q, t)
             m.q.push(q, t)
             arm.cmd[:] = q
@@ -521,7 +538,11 @@ class FrankaBox(TickingBox):
                 self.lost_in_row += 1
                 self.max_lost_in_row = max(self.max_lost_in_row, self.lost_in_row)
                 self.window.append(0)
-                if self.lost_in_row >= self.max_lost:
+                # the robot's rule is 20 lost cycles in a row; a starved box sends fewer states
+                # than milliseconds pass, so silence as long as 20 cycles counts too (and only
+                # while a state is unanswered: a box that stalled itself is not the client's fault)
+                silent_ms = (time.monotonic_ns() - self._last_command_ns) // 1_000_000
+                if self.lost_in_row >= self.max_lost or silent_ms >= self.max_lost:
                     self._reflex(fw.ERR_COMMUNICATION_CONSTRAINTS_VIOLATION)
                 else:
                     self._extrapolate(self.message_id)
@@ -529,21 +550,16 @@ class FrankaBox(TickingBox):
             self.pending = None
             if self.motion is None:
                 self.q_d[:] = self.arm.q
-        # physics: one step per elapsed period (a tick the box itself skipped still passed for the arm)
-        steps = min(50, max(1, self.tick_index + 1 - self.message_id))
-        if steps > 1 and self.motion is not None:
-            self._suspend_checks = 3
+        # physics and the robot's clock: one millisecond per state. A tick the box process could
+        # not keep (descheduled) is not made up: the simulated robot's time stops with it, as a
+        # simulator's clock does, so the client never sees a gap the robot would not have had.
         try:
             self.arm.step(1)
-            for k in range(1, steps):      # ticks the box skipped: no state went out, so no command
-                if self.motion is not None:   # could come; the robot's rule for a missing one applies
-                    self._extrapolate(self.message_id + k)
-                self.arm.step(1)
         except ValueError:
             c["rejected_nonfinite"] += 1
             self.arm.hold()
             self.arm.step(1)
-        self.message_id = self.tick_index + 1
+        self.message_id += 1
         self._pack_state()
         out = self._values.tobytes()
         self._last_state_moving = self.motion is not None

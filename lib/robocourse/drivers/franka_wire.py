@@ -139,6 +139,16 @@ SUCCESS_WINDOW = 100
 MAX_JOINT_ACCELERATION = 10.0      # rad/s^2
 MAX_JOINT_JERK = 5000.0            # rad/s^3
 MAX_TORQUE_RATE = 1000.0           # N m/s
+#: ours, not Franka's: the multiple of the published acceleration and jerk limits above which the
+#: box raises the joint motion generator discontinuity reflexes; infinite (off) by default.
+#: libfranka stamps a command with the newest state it has received, so a command computed from
+#: one state and sent after the next one arrived lands a millisecond late: at 0.2 rad/s that is
+#: 200 rad/s^2 of apparent acceleration, far above the published 10. The robot evidently
+#: tolerates it (its detection thresholds are not published); a box flagging it would stop every
+#: correct Python loop on a busy machine. Position and velocity limits are always checked.
+DISCONTINUITY_MARGIN = float("inf")
+#: the same for the torque rate (controller_torque_discontinuity): checked, at twice 1000 N m/s
+TORQUE_RATE_MARGIN = 2.0
 
 
 def error_names(flags) -> list[str]:
