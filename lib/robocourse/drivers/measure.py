@@ -76,9 +76,10 @@ def franka_roundtrip(seconds: float = 2.0, *, physics: bool = True, realtime: bo
     """Run a fresh Franka box and a pylibfranka joint position loop (read the state, call
     ``work()`` if given, command the start position) for ``seconds``; return what the box counted.
 
-    ``realtime``: both the box and this loop try SCHED_FIFO + locked memory + a frozen gc (what
+    ``realtime``: this loop (the client) tries SCHED_FIFO + locked memory + a frozen gc (what
     :func:`robocourse.rt.settings.realtime` does; refused for an unprivileged user: the run then
-    measures the default scheduler, and ``realtime_applied`` says so). The box allows any number
+    measures the default scheduler, and ``realtime_applied`` says so). The box, like a robot's
+    controller, always asks for them (``start_franka_box``'s default). The box allows any number
     of lost cycles here (no reflex) so the whole run is measured; ``max_lost_in_row`` tells
     whether the robot's limit (20) would have stopped it.
     """
@@ -88,7 +89,7 @@ def franka_roundtrip(seconds: float = 2.0, *, physics: bool = True, realtime: bo
 
     if not 0 < seconds <= 600:
         raise ValueError(f"seconds={seconds!r} must be in (0, 600]")
-    box = start_franka_box(max_lost=10 ** 9, physics=physics, realtime=realtime)
+    box = start_franka_box(max_lost=10 ** 9, physics=physics)
     applied = ""
     try:
         robot = pylibfranka.Robot(box.host, pylibfranka.RealtimeConfig.kIgnore)
