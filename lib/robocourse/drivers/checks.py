@@ -44,6 +44,7 @@ _STATE = Dict(q=_Q, mode=Str(max_len=40), errors=Str(max_len=2000))
 _CALL = dict(raised=Opt(Str(max_len=100)), text=Str(max_len=500), returned=Str(max_len=200))
 SCHEMA = Dict(setup=Str(max_len=400),
               a=Opt(Dict(**_CALL, q0=_Q, after=_STATE, ts=List(Number(finite=False), max_len=20_000),
+                         attempts=Number(integer=True),
                          stats=Map(Any(max_items=10), max_items=20))),
               b=Opt(Dict(**_CALL, after=_STATE, last_reflex=Str(max_len=1000), reflexes=Number(integer=True))))
 
@@ -56,7 +57,8 @@ def _phase_a(inputs, out) -> dict:
     stats = a["stats"]
     if a["raised"]:
         why = f" (the robot: {stats.get('last_reflex')})" if stats.get("last_reflex") else ""
-        raise CheckFailed(f"run_motion raised {a['raised']}: {a['text']}{why}. Under the load test (CPU load, pauses "
+        tries = f" in each of {a['attempts']} runs" if a["attempts"] > 1 else ""
+        raise CheckFailed(f"run_motion raised {a['raised']}{tries}: {a['text']}{why}. Under the load test (CPU load, pauses "
                           f"of {', '.join(f'{ms} ms at t = {t} s' for t, ms in inputs['pauses'])}) the loop must keep "
                           f"the robot moving: nothing in the loop may block for {fw.MAX_LOST_IN_ROW} cycles, and the "
                           "command must follow the robot's clock (t from readOnce's durations)")

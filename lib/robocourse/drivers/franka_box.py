@@ -59,6 +59,9 @@ from .loopback import bind_all, bind_free_loopback
 from .ticker import TickingBox
 
 _RING = 1 << 15
+#: ours: a starved box sends fewer states than milliseconds pass, so a client silent this long (ms of
+#: wall time) with at least SILENCE_LOST states unanswered also trips the communication reflex
+SILENCE_MS, SILENCE_LOST = 25, 5
 #: the thresholds of the discontinuity reflexes (published limits x our margin, see franka_wire)
 _ACC = fw.MAX_JOINT_ACCELERATION * fw.DISCONTINUITY_MARGIN
 _JERK = fw.MAX_JOINT_JERK * fw.DISCONTINUITY_MARGIN
@@ -542,7 +545,7 @@ class FrankaBox(TickingBox):
                 # than milliseconds pass, so silence as long as 20 cycles counts too (and only
                 # while a state is unanswered: a box that stalled itself is not the client's fault)
                 silent_ms = (time.monotonic_ns() - self._last_command_ns) // 1_000_000
-                if self.lost_in_row >= self.max_lost or silent_ms >= self.max_lost:
+                if self.lost_in_row >= self.max_lost or (silent_ms >= SILENCE_MS and self.lost_in_row >= SILENCE_LOST):
                     self._reflex(fw.ERR_COMMUNICATION_CONSTRAINTS_VIOLATION)
                 else:
                     self._extrapolate(self.message_id)
