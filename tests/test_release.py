@@ -68,7 +68,7 @@ SHARED_LINES = {
                                                   "tests/test_control_hardware.py"},
     "<plugin>mock_components/GenericSystem</plugin>": {
         "lib/robocourse/control/checks.py", "lib/robocourse/control/probes.py", "lib/robocourse/control/hardware/info.py",
-        "lib/robocourse/sim/robots/rrbot.urdf", "lib/robocourse/sim/robots/ur5e.urdf", "tests/test_control_manager.py"},
+        "lib/robocourse/sim/robots/rrbot.urdf", "lib/robocourse/sim/robots/ur5e.urdf", "lib/robocourse/sim/robots/fr3.urdf", "tests/test_control_manager.py"},
     "wrist_controller: {ros__parameters: {joints: [joint3]}}": {"chapters/04_ros2_control.ipynb"},
     # chapter 5's pylibfranka exercise: the API calls its statement names (libfranka's own loop
     # idiom: the chapter, the box's tests and the measurement use them too; not an answer alone)

@@ -30,7 +30,7 @@ SECONDS = 2.0              # s of robot time per motion
 PAUSES = 3                 # pauses inside the loop during phase A, each below the robot's limit
 PAUSE_MS = (6, 12)         # ms, whole numbers
 STALL_MS = 30              # the stall of phase B: above the robot's 20 lost cycles
-ATTEMPTS = 3               # phase A runs again (up to this many times) after a communication reflex
+ATTEMPTS = 5               # phase A runs again (up to this many times) after a communication reflex
 LOAD_PROCESSES = 1         # chapter 1's CpuLoad: one busy process beside the loop
 
 
