@@ -13,6 +13,8 @@ LAB_FLAGS ?=
 # the lab's settings live in the venv, never in your home (robocourse/cli/lab.py says what each does)
 LAB_CONF := $(VENV)/etc/jupyter/jupyter_server_config.json
 PYTEST_FLAGS ?=
+# parallel workers for make test (pytest-xdist); TEST_JOBS=0 runs everything in this process
+TEST_JOBS ?= 3
 
 .PHONY: lab test setup kernel exercises lint clean
 
@@ -37,7 +39,7 @@ lab: $(LAB_CONF)
 	$(VENV)/bin/jupyter lab $(LAB_FLAGS)
 
 test: $(STAMP)
-	$(PY) -X faulthandler -m pytest $(PYTEST_FLAGS)
+	$(PY) -X faulthandler -m pytest -n $(TEST_JOBS) $(PYTEST_FLAGS)
 
 exercises: $(STAMP)
 	$(VENV)/bin/robocourse exercises build

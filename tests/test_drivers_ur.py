@@ -18,6 +18,9 @@ from robocourse.drivers import BoxStartError, start_ur_box
 from robocourse.drivers import ur_protocol as up
 from robocourse.drivers.ur_client import RTDEControlInterface, RTDEError, RTDEReceiveInterface
 
+# the box streams RTDE at 500 Hz and stops on a keepalive lapse: these run alone (tests/conftest.py)
+pytestmark = pytest.mark.serial
+
 
 @pytest.fixture
 def box():

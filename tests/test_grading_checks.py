@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import functools
-import time
 
 import pytest
 
@@ -89,10 +88,8 @@ def test_time_limit_stops_an_endless_loop():
             pass
 
     _register("test.slow", lambda i, o: "ok", probe=lambda inputs, f: f(), inputs=None, time_limit=0.3)
-    start = time.monotonic()
-    r = checks.check("test.slow", forever, quiet=True)
+    r = checks.check("test.slow", forever, quiet=True)   # it returns at all: the alarm interrupted the loop
     assert not r.passed and "0.3 s time limit" in r.message and r.reason == "timeout"
-    assert time.monotonic() - start < 10  # it returned at all: the alarm interrupted the loop
 
 
 def _reference_double(x):
