@@ -30,7 +30,10 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-NOTEBOOK_BUDGET_S = 60  # a notebook that needs more than this headless is a bug (issue 2)
+#: A notebook executed by nbmake is stopped after this long. A safety net, not the budget: the goal
+#: is 60 s headless on a quiet machine, measured by benchmarks/notebook_times.py (issue 25: a
+#: loaded machine made a 60 s test timeout fail a clean clone's CI for no fault of the course).
+NOTEBOOK_TIMEOUT_S = 240
 
 SERIAL_GROUP = "serial"
 _CACHE_KEY = "robocourse/unit_seconds"
@@ -63,8 +66,8 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         path = Path(str(getattr(item, "path", "")))
         if path.suffix == ".ipynb":
-            # a hard limit for the whole notebook (nbmake's own is per cell)
-            item.add_marker(pytest.mark.timeout(NOTEBOOK_BUDGET_S))
+            # the safety-net limit for the whole notebook (nbmake's own is per cell)
+            item.add_marker(pytest.mark.timeout(NOTEBOOK_TIMEOUT_S))
             if _notebook_is_serial(path):
                 item.add_marker(pytest.mark.serial)
         serial = item.get_closest_marker("serial") is not None
