@@ -25,7 +25,10 @@ def test_cpu_load_pins_busy_processes_and_cleans_up():
     with CpuLoad(cpu=cpu, processes=2) as load:
         pids = load.pids
         assert len(pids) == 2
-        time.sleep(0.2)
+        # each child pins itself as it starts: wait for that (a loaded machine starts them late)
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and any(os.sched_getaffinity(p) != {cpu} for p in pids):
+            time.sleep(0.05)
         for pid in pids:
             assert os.sched_getaffinity(pid) == {cpu}
             with open(f"/proc/{pid}/stat") as fh:
@@ -34,6 +37,24 @@ def test_cpu_load_pins_busy_processes_and_cleans_up():
         assert not os.path.exists(f"/proc/{pid}") or open(f"/proc/{pid}/stat").read().split(")")[1].split()[0] == "Z"
     with pytest.raises(ValueError, match="pick one of them"):
         CpuLoad(cpu=4096)
+
+
+def test_cpu_load_started_from_a_realtime_thread_spins_at_sched_other():
+    # a child inherits the parent's policy: CpuLoad must not spin at SCHED_FIFO (it would take
+    # the CPU from everything but the kernel's own real-time threads)
+    from robocourse.rt import settings
+
+    if not settings.set_scheduling("fifo", 10, quiet=True).ok:
+        pytest.skip("SCHED_FIFO is not allowed here (no rtprio): nothing to inherit")
+    try:
+        with CpuLoad(processes=1) as load:
+            deadline = time.monotonic() + 30       # the child resets its policy as it starts
+            while time.monotonic() < deadline and os.sched_getscheduler(load.pids[0]) != os.SCHED_OTHER:
+                time.sleep(0.05)
+            policies = [os.sched_getscheduler(pid) for pid in load.pids]
+    finally:
+        settings.reset_scheduling()
+    assert policies == [os.SCHED_OTHER]
 
 
 def test_gc_pressure_survivors_reach_the_oldest_generation_and_pauses_are_recorded():
