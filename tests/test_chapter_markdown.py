@@ -52,10 +52,6 @@ KNOWN_VIOLATIONS: dict[str, list[str]] = {
     'solutions/05_hardware_drivers_exercises.ipynb': [
         "The Franka-style box sends a STATE every 1 ms and wants a COMMAND carrying that state's `seq` before its next tick (`robocourse.drivers.franka_protocol` documents the bytes; use its `HEADER`, `state_struct(n)`, `encode_command` and constants).",
     ],
-    'solutions/07_graph_across_processes_exercises.ipynb': [
-        '| 17-32 | the GID, 16 bytes |',
-        "Anything that is not this 33-byte form (for example rmw_zenoh's pre-2025 attachment, 77 bytes with field names inside) must raise `ValueError` naming the length.",
-    ],
 }
 
 
