@@ -168,6 +168,18 @@ def test_lab_default_kernel_is_the_course_kernel(lab):
     assert tracker["schema"]["properties"]["autoStartDefaultKernel"]["default"] is True
 
 
+def test_lab_kernels_talk_over_ipc_so_they_print_no_tcp_warning(lab):
+    # issue 25: every kernel start logged "Kernel is running over TCP without encryption"; the lab's
+    # kernels use IPC sockets in the runtime folder (this test's own: JUPYTER_RUNTIME_DIR)
+    kernel = lab.send("POST", "/api/kernels", {})
+    try:
+        runtime = lab.user_settings.parent / "runtime"
+        info = json.loads((runtime / f"kernel-{kernel['id']}.json").read_text())
+        assert info["transport"] == "ipc" and info["ip"].startswith(str(runtime))
+    finally:
+        lab.send("DELETE", f"/api/kernels/{kernel['id']}")
+
+
 def test_lab_news_and_update_check_are_off_by_default(lab):
     served = lab.get(f"/lab/api/settings/{NOTIFICATION}")
     props = served["schema"]["properties"]

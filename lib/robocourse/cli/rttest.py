@@ -53,25 +53,14 @@ def _heap_cap(requested: int) -> tuple[int, str]:
 def run_rttest(args) -> int:
     from robocourse.rt import settings
     from robocourse.rt.loop import PeriodicLoop, _faults
-    from robocourse.rt.options import USAGE, RttestUsageError, parse_rttest_args
+    from robocourse.rt.options import RttestUsageError, parse_rttest_args
     from robocourse.rt.wait import strategy
 
     argv = list(args.rttest_args)
     if any(a in ("-h", "--help") for a in argv):
-        print(USAGE)
-        print("  -i N      iterations (default 1000; <= 0 runs until Ctrl-C and keeps no samples file)")
-        print("  -u T      period, ns/us/ms/s (bare number = us; default 1ms)")
-        print("  -t P      real-time priority 1..98 (default 80)")
-        print("  -s POL    fifo or rr (default rr)")
-        print("  -m S      stack prefault, gb/mb/kb/b (bare number = MB; default 1mb)")
-        print("  -d S      heap prefault cap, same units (rttest: 8gb; robocourse uses 64mb unless -d is given;")
-        print("            never more than a quarter of MemAvailable)")
-        print("  -f FILE   write rttest's results file")
-        print("  --wait W  sleep (default: rttest's clock_nanosleep), hybrid (sleep, then spin the last --spin)")
-        print("            adaptive (sleep, then spin only the window this machine needs, learned as it runs,")
-        print("            at most --spin) or spin (busy-wait: a whole core); --spin T: hybrid's window,")
-        print("            adaptive's upper bound (default 200us)")
-        print("  --cpu N   pin the loop to CPU N")
+        from robocourse.rt.options import help_text
+
+        print(help_text("robocourse rttest"))
         return 0
     try:
         opts = parse_rttest_args(argv)
@@ -80,16 +69,19 @@ def run_rttest(args) -> int:
         return 2
     if opts.cpu is not None:
         print(settings.set_affinity(opts.cpu))
-    if any(a.startswith("-d") for a in argv):
+    explicit_cap = any(a.startswith("-d") for a in argv)
+    if explicit_cap:
         heap, note = _heap_cap(opts.heap_size)
     else:
-        heap, note = min(opts.heap_size, DEFAULT_HEAP), (
-            f"heap prefault: {DEFAULT_HEAP >> 20} MiB. rttest's default cap is 8 GiB, and after mlockall "
-            "its rule faults in (and locks) all of it; pass -d 8gb to do exactly that")
+        heap, note = min(opts.heap_size, DEFAULT_HEAP), ""
     if note:
         print(note)
     for r in settings.lock_and_prefault(opts.stack_size, heap, until_no_faults=True):
         print(r)
+        if r.name == "heap prefault" and not explicit_cap:
+            # one statement about the heap: what happened is the line above; this only names the cap
+            print(f"{'':20}cap: robocourse's default, {DEFAULT_HEAP >> 20} MiB (rttest's default cap is 8 GiB: "
+                  "pass -d 8gb for rttest's)")
     print(settings.gc_freeze())
     print(settings.set_scheduling(opts.policy, opts.priority))
     minflt, majflt = _faults()
@@ -103,7 +95,7 @@ def run_rttest(args) -> int:
     print()
     print(result.stats().format(name=opts.filename))
     if hasattr(wait, "window_ns"):
-        print(wait.describe(opts.period_ns))
+        print(wait.describe(opts.period_ns))   # what the adaptive wait learned, and its cost
     if opts.filename:
         if opts.iterations <= 0:
             print("No sample buffer was saved, not writing results", file=sys.stderr)

@@ -18,10 +18,13 @@ import subprocess
 import sys
 import time
 
-# a child inherits its parent's scheduling policy: reset it to SCHED_OTHER first, or CpuLoad
-# started from inside a real-time section would spin at SCHED_FIFO and starve the machine
+# A child inherits its parent's scheduling policy: started from a SCHED_FIFO process (rttest with
+# -p, a benchmark's RT settings) a busy loop would be a real-time hog that starves every CPU it may
+# use. It returns to SCHED_OTHER first, so it is always the ordinary load the docstring promises.
 _BUSY = ("import os, sys\n"
-         "if hasattr(os, 'sched_setscheduler'):\n    os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))\n"
+         "if hasattr(os, 'sched_setscheduler'):\n"
+         "    try:\n        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))\n"
+         "    except OSError:\n        pass\n"
          "if hasattr(os, 'sched_setaffinity'):\n    os.sched_setaffinity(0, {int(a) for a in sys.argv[1:]})\n"
          "while True:\n    pass\n")
 
@@ -29,9 +32,8 @@ _BUSY = ("import os, sys\n"
 class CpuLoad:
     """``with CpuLoad(cpu=1, processes=2):`` busy-looping processes pinned to ``cpu`` (like stress -c).
 
-    They run under SCHED_OTHER (also when started from a real-time thread, whose policy a child
-    would otherwise inherit): a SCHED_OTHER loop on the same core must share the CPU with them
-    (the scheduler's fair share shows up as latency); a SCHED_FIFO loop preempts them.
+    They run under SCHED_OTHER: a SCHED_OTHER loop on the same core must share the CPU with
+    them (the scheduler's fair share shows up as latency); a SCHED_FIFO loop preempts them.
     """
 
     def __init__(self, cpu: int | None = None, processes: int = 1):
