@@ -31,7 +31,6 @@ REPEATS = int(os.environ.get("ROBOCOURSE_BANK_REPEATS", "1"))
 PENDING = {
     "ch03": "helper ch3", "ch05.ur": "helper ur",
     "ch05.franka_loop": "helper franka: its bank (tests/banks_pending/ch05_franka.py) is not yet stable in the sandbox",
-    "ch06": "helper ch67", "ch07": "helper ch67",
 }
 
 

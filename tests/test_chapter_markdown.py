@@ -49,10 +49,6 @@ KNOWN_VIOLATIONS: dict[str, list[str]] = {
         '- **execute** (an `async def`): every 0.05 s (`await self.sleep_async(0.05)`) read the latest odometry; if a cancel was requested, stop the car (a zero Twist), call `goal_handle.canceled()` and return a result with `success=False`; publish `percent_complete` feedback (0 at the start, 100 at the goal); once within 5 cm of the goal *position* (heading does not matter here) stop, `succeed()` and return `success=True`; otherwise turn towards the goal and drive when roughly facing it.',
         'The grader runs the library\'s driver node on a kinematic motor driver beside your server and sends a reachable goal, a goal in `"map"`, a NaN goal and a far goal it cancels after 1 s.',
     ],
-    'solutions/07_graph_across_processes_exercises.ipynb': [
-        '| 17-32 | the GID, 16 bytes |',
-        "Anything that is not this 33-byte form (for example rmw_zenoh's pre-2025 attachment, 77 bytes with field names inside) must raise `ValueError` naming the length.",
-    ],
 }
 
 
