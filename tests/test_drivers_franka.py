@@ -25,7 +25,7 @@ from robocourse.drivers import franka_wire as fw  # noqa: E402
 LENIENT = 100_000       # lost cycles in a row before the reflex, when a test is not about the reflex
 IGNORE = pylibfranka.RealtimeConfig.kIgnore
 HOME = np.array([0.0, -math.pi / 4, 0.0, -3 * math.pi / 4, 0.0, math.pi / 2, math.pi / 4])
-pytestmark = pytest.mark.timeout(90)
+pytestmark = [pytest.mark.timeout(90), pytest.mark.serial]   # 1 kHz loops: timing-sensitive by nature
 
 
 @pytest.fixture

@@ -18,7 +18,7 @@ from robocourse.control.bringup import bringup  # noqa: E402
 from robocourse.control.hardware.types import ACTIVE, INACTIVE, UNCONFIGURED  # noqa: E402
 from robocourse.control.log import LogSink  # noqa: E402
 
-pytestmark = pytest.mark.timeout(120)
+pytestmark = [pytest.mark.timeout(120), pytest.mark.serial]   # 1 kHz loops: timing-sensitive by nature
 LENIENT = {"max_lost": 100_000}
 
 
