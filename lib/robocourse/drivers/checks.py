@@ -35,7 +35,7 @@ from .franka_probes import LOAD_PROCESSES, PAUSE_MS, PAUSES, SECONDS, STALL_MS, 
 
 def _inputs(rng):
     amplitude = [round(float(a), 3) for a in rng.uniform(0.05, 0.15, 7) * rng.choice([-1, 1], 7)]
-    times = sorted(round(float(t), 3) for t in rng.uniform(0.3, SECONDS - 0.3, PAUSES))
+    times = sorted(round(float(t), 3) for t in rng.uniform(0.2, SECONDS - 0.2, PAUSES))
     return {"seconds": SECONDS, "amplitude": amplitude, "load_processes": LOAD_PROCESSES,
             "pauses": [[t, int(rng.integers(PAUSE_MS[0], PAUSE_MS[1] + 1))] for t in times],
             "stall_at": round(float(rng.uniform(0.1, 0.3)), 3), "stall_ms": STALL_MS}
