@@ -512,7 +512,7 @@ def test_a_killed_grader_loses_nothing_and_a_rerun_resumes(tmp_path):
     assert len(kept) >= 1 and not out.exists()
     done = subprocess.run(args, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
-    assert f"resumed from the journal (not re-run): {len(kept)}" in done.stdout
+    assert f"--restart grades them again): {len(kept)}" in done.stdout
     rows = list(csv.DictReader(out.open()))
     assert [(r["student"], r["total"]) for r in rows] == [("ana", "5"), ("ben", "5"), ("cho", "5")]
     # a later run over fewer submissions may not shrink the CSV without --force
