@@ -217,10 +217,10 @@ def test_a_disk_filler_fills_only_its_own_folder(run):
     assert points(run, "honest_a") == points(run, "honest_b") == FULL
 
 
-def test_cpu_spinners_stay_in_their_own_slot(run):
-    assert points(run, "spinner") == FULL
-    if CGROUPS and len(resources.allowed_cpus()) >= 2:
-        assert "one slot per submission" in run["proc"].stdout
+def test_cpu_spinners_get_one_cpus_worth_and_neighbours_their_points(run):
+    assert points(run, "spinner") == FULL and points(run, "honest_b") == FULL
+    if CGROUPS:
+        assert "one CPU's worth each" in run["proc"].stdout
 
 
 def test_the_answer_key_is_not_importable_in_the_sandbox(run):

@@ -1,4 +1,6 @@
-"""``robocourse grade SUBMISSIONS... [-j N] [--out grades.csv] [--feedback DIR]`` (otter grade).
+"""``robocourse grade SUBMISSIONS... [-j N] [--out grades.csv] [--feedback DIR]`` (otter grade), and
+``robocourse grade export-gradescope CHAPTER [--out autograder.zip]`` (otter generate: a Gradescope
+autograder for classes past one machine).
 
 Every submission runs in its own bubblewrap sandbox (``--sandbox auto``); the run summary
 says loudly if any could not be. Rows go to ``<out>.journal.jsonl`` as each submission
@@ -57,8 +59,27 @@ def _due(text):
         raise ValueError(f"--due {text!r} is not an ISO 8601 date; write e.g. --due 2026-11-20T23:59") from None
 
 
+def export_gradescope(args) -> int:
+    """``robocourse grade export-gradescope CHAPTER [--out autograder.zip]``: Gradescope's autograder zip."""
+    from robocourse.grading import gradescope
+
+    if len(args.submissions) != 2:
+        raise ValueError("usage: robocourse grade export-gradescope CHAPTER [--out autograder.zip] "
+                         "(CHAPTER: ch00, 00 or the notebook's name)")
+    chapter = args.submissions[1]
+    out = args.out if args.out != "grades.csv" else f"autograder_{chapter}.zip"
+    path = gradescope.export(chapter, out, solutions_dir=args.solutions, extra_dirs=args.checks,
+                             time_limit=args.time_limit, memory_mb=args.memory, max_processes=args.max_processes,
+                             cell_timeout=args.cell_timeout, salt=args.seed_salt)
+    print(f"-> {path}: upload it as the assignment's autograder (Gradescope: Configure Autograder > Zip file)")
+    return 0
+
+
 def run(args) -> int:
     from robocourse.grading.grader import grade
+
+    if args.submissions and args.submissions[0] == "export-gradescope":
+        return export_gradescope(args)
 
     bar = None
 

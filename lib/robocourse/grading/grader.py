@@ -26,7 +26,6 @@ import hashlib
 import inspect
 import json
 import os
-import queue
 import re
 import shutil
 import stat
@@ -456,10 +455,6 @@ def probe_submission(sub: Submission, assignment: Assignment | None, *, limits: 
             g.notes.append(f"{outcome.leftover} process(es) survived the kill")
         g.resources = outcome.resources
         g.cpus = list(outcome.cpus) if outcome.cpus else []
-        timing = [c.name for c in chks if c.timing]
-        if timing and not outcome.cpus:
-            g.notes.append(f"no CPU to itself for the timing checks ({', '.join(timing)}): more submissions were graded "
-                           "at once than there are CPUs; a failed timing sub-test may be the machine's, not yours")
         if isinstance(status.get("output_chars"), int) and status["output_chars"] > limits.output_bytes:
             g.notes.append(f"printed {status['output_chars']} characters (not kept)")
         errs = status.get("errors", [])
@@ -634,12 +629,8 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
         warm_font_cache(workroot)
     grades: list[Grade | None] = [None] * len(subs)
 
-    free = resources.cpu_slots(jobs)
-    slots = None
-    if free is not None:
-        slots = queue.Queue()
-        for slot in free:
-            slots.put(slot)
+    gate = resources.CpuGate()
+    registry = checks_mod.discover()
 
     def one(i: int):
         """In a worker thread: a journaled Grade, or the Probed submission to judge."""
@@ -659,13 +650,17 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
                 g.resumed = True
                 return key, g
             regraded.append((str(s.path), changed))
-        cpus = slots.get() if slots is not None else None  # a CPU slot no other submission uses meanwhile
-        try:
-            return key, probe_submission(s, a, limits=limits, cell_timeout=cell_timeout, mode=mode,
-                                         workroot=workroot, salt=salt, cpus=cpus)
-        finally:
-            if slots is not None:
-                slots.put(cpus)
+        timing = a is not None and any(registry[n].timing for n in a.checks if n in registry)
+        with gate.hold(exclusive=timing) as cpus:  # a timing check runs with no other submission beside it
+            busy = resources.machine_busy() if timing else ""
+            probed = probe_submission(s, a, limits=limits, cell_timeout=cell_timeout, mode=mode, workroot=workroot,
+                                      salt=salt, cpus=cpus)
+            busy = busy or (resources.machine_busy() if timing else "")
+        if busy:
+            probed.grade.notes.append(f"the machine was busy with other programs ({busy}) while your timing checks ran "
+                                      "(no other submission ran beside them): a failed timing sub-test may be the "
+                                      "machine's, not yours; ask for a regrade")
+        return key, probed
 
     def failed(i: int, exc: BaseException) -> Grade:
         # the grader's own failure: reported, never blamed on the student, not journaled (a re-run grades it)
@@ -702,7 +697,7 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
     result.summary = report.summary(result, ignored=ignored, unknown=unknown, refused=refused_other, regraded=regraded,
                                     seconds=time.monotonic() - start,
                                     mode=mode, jobs=jobs, due=due, late_penalty=late_penalty,
-                                    limits_line=_limits_line(limits, free))
+                                    limits_line=_limits_line(limits))
     if out:
         write_csv(result, out, force=force)
         Path(f"{out}.summary.txt").write_text(result.summary, encoding="utf-8")
@@ -715,13 +710,14 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
     return result
 
 
-def _limits_line(limits: sandbox.Limits, slots) -> str:
+def _limits_line(limits: sandbox.Limits) -> str:
     how = {"cgroup-v1": "cgroup v1 per submission (shared memory and memfd counted)",
            "cgroup-v2-delegated": "a delegated cgroup v2 per submission (systemd-run --user --scope)",
            "polling": "polled resident memory and process count (no cgroup could be created: shared memory outside "
                       "the sandbox is not counted)"}[resources.mode()]
-    cpu = (f"CPUs {', '.join('+'.join(map(str, s)) for s in slots)}, one slot per submission graded at a time"
-           if slots is not None else "CPUs shared (more jobs than CPUs: no submission had a CPU to itself)")
+    cpu = ("a submission with a timing check ran alone with every CPU; the others side by side, one CPU's worth each"
+           if resources.mode() != "polling" else
+           "a submission with a timing check ran alone; the others side by side (no CPU cap without a cgroup)")
     return (f"limits per submission: {limits.memory_mb} MB, {limits.max_processes} processes, a {limits.work_mb} MB "
             f"folder, a {limits.shm_mb} MB /dev/shm, {limits.time_s:g} s; enforced by {how}; {cpu}")
 

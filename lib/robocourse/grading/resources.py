@@ -31,10 +31,12 @@ size is polled.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import signal
 import subprocess
+import threading
 import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -100,14 +102,47 @@ def allowed_cpus() -> list[int]:
     return sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else list(range(os.cpu_count() or 1))
 
 
-def cpu_slots(jobs: int) -> list[tuple[int, ...]] | None:
-    """The CPUs split into ``jobs`` slots, one per submission graded at a time (None: fewer CPUs
-    than jobs, so no submission can have a CPU to itself)."""
-    cpus = allowed_cpus()
-    if jobs > len(cpus):
-        return None
-    size = len(cpus) // jobs
-    return [tuple(cpus[k * size:(k + 1) * size]) for k in range(jobs)]
+class CpuGate:
+    """Who may run while a submission is graded: a submission with a timing check runs alone with
+    every CPU (the grader starts no other submission until it ends; one already waiting goes
+    first), the others run side by side, each held to one CPU's worth of time by its cgroup."""
+
+    def __init__(self):
+        self._cond = threading.Condition()
+        self._active = 0
+        self._exclusive = False
+        self._waiting = 0
+
+    @contextlib.contextmanager
+    def hold(self, exclusive: bool):
+        with self._cond:
+            if exclusive:
+                self._waiting += 1
+                self._cond.wait_for(lambda: self._active == 0 and not self._exclusive)
+                self._waiting -= 1
+                self._exclusive = True
+            else:
+                self._cond.wait_for(lambda: not self._exclusive and not self._waiting)
+                self._active += 1
+        try:
+            yield tuple(allowed_cpus()) if exclusive else None
+        finally:
+            with self._cond:
+                if exclusive:
+                    self._exclusive = False
+                else:
+                    self._active -= 1
+                self._cond.notify_all()
+
+
+def machine_busy() -> str:
+    """A sentence when other programs load the machine (load average above its CPU count), else ''."""
+    try:
+        load = os.getloadavg()[0]
+    except OSError:
+        return ""
+    n = len(allowed_cpus())
+    return f"load average {load:.1f} on {n} CPU(s)" if load > n else ""
 
 
 @dataclass
@@ -126,7 +161,7 @@ class Box:
 
     memory_mb: int
     max_processes: int
-    cpus: tuple[int, ...] | None = None  # the submission's CPU slot (pinned; at most this many CPUs), or None
+    cpus: tuple[int, ...] | None = None  # CPUs it has to itself (a timing check), or None: one CPU's worth
     mode: str = field(default_factory=mode)
     dirs: dict = field(default_factory=dict)
     unit: str = ""
