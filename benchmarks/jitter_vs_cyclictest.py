@@ -14,6 +14,30 @@ Goals (issue 31), printed beside the figures: the adaptive wait's p99 <= cyclict
 
     python benchmarks/jitter_vs_cyclictest.py [--pairs 5] [--iterations 5000] [--priority 80]
         [--spin-us 200] [--adaptive-max-us 300] [--conditions idle,load] [--no-spin]
+
+Example (2026-11-27, ``--pairs 5 --iterations 2000 --no-spin``, the 2-core VM shared with other
+jobs at load average 12-20; one run's figures, not a specification):
+
+    idle: median over 5 rounds (latency in us, CPU in % of one core)
+    | loop                         |     p50 |     p99 |   p99.9 |      max |  CPU % | p99 / C |
+    | cyclictest (C)               |    25.2 |   182.7 |   347.7 |   1629.1 |    1.4 |    1.00 |
+    | python sleep                 |    26.7 |    82.2 |   976.2 |   1886.9 |    3.0 |    1.70 |
+    | python hybrid (200 us)       |     0.4 |     1.0 |    80.4 |   1192.7 |   20.1 |    0.02 |
+    | python adaptive (<= 300 us)  |     0.6 |    13.3 |   133.6 |   1116.8 |    8.3 |    0.08 |
+    goal, adaptive idle: p99 / C 0.08 (rounds 453.69, 0.09, 0.02, 0.06, 0.08) met; CPU 8.3 % met
+
+    under chapter 1's CPU load (2 busy processes on CPU 1), loops pinned to CPU 1
+    | cyclictest (C)               |    20.5 |    42.1 |   141.5 |    243.7 |    1.7 |    1.00 |
+    | python sleep                 |    25.3 |    54.4 |   146.4 |    238.4 |    2.9 |    1.40 |
+    | python hybrid (200 us)       |     0.3 |     0.8 |    14.7 |     28.2 |   20.2 |    0.02 |
+    | python adaptive (<= 300 us)  |     0.6 |     1.6 |   184.4 |    299.3 |    9.9 |    0.04 |
+    goal, adaptive under load: p99 / C 0.04 (rounds 0.04, 0.03, 0.03, 0.38, 0.27) met; CPU 9.9 % met
+    adaptive window at the end of each run: 77, 59, 69, 129, 169 us
+
+The CPU column is the loop thread's whole CPU time (the Python loop's own bookkeeping is about
+what plain sleep shows), so adaptive's spin is its share minus sleep's. In round 1 idle the
+machine stalled the Python loops for tens of milliseconds (sleep's p99 was 93 ms in that round
+too): the median of the rounds is what the goal is read from.
 """
 
 from __future__ import annotations

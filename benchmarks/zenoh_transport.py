@@ -111,6 +111,33 @@ waits for the GIL while the executor runs). Waking the executor before decoding 
 wake-up overlaps the decode): no gain. Disabling zenoh timestamping (rmw_zenoh enables it)
 or ``allowed_destination``: no difference.
 
+Throughput (issue 31: flat-out publish throughput >= 0.7x raw zenoh's, same payloads and
+processes; the throughput row of the table above, with each process's CPU time per message
+during the flood in the last two columns): NOT met. ``--quick`` on 2026-11-27 with the shared
+machine at load average 12-20: 0.17x [0.08..0.29] (small) and 0.26x [0.21..0.31] (1 kB) of raw
+zenoh's msgs/s; five 5000-message floods the same hour: 0.11x (15,608 vs 128,709 msgs/s). Where
+the time goes (that hour, so every figure is inflated by the load; same-run comparisons only):
+
+- CPU per message, 5000-message floods: the publishing process 10.1 us (raw 3.7 us), the echo
+  process 10.0 us (raw 2.0 us). At 15-25 k msgs/s that is a third of a core or less: robocourse
+  is not CPU-bound in a flood, it waits.
+- The wait is the hand-off: a sample that finds the executor asleep releases its lock from
+  zenoh's thread and the spinning thread must then be scheduled by the OS, once per message
+  when the executor keeps up; on a loaded 2-core machine that wake-up sets the pace. Raw zenoh
+  answers inside zenoh's own, already running callback thread.
+- Warm per-stage CPU (one thread, no zenoh threads, same load): CDR decode 5.9 us (the message
+  constructor's field checks ~2 us of it), CDR encode 4.4, attachment pack 1.0, attachment read +
+  check 1.0, payload to bytes 0.5, value copy 0.8, Publisher.publish's own layers 1.2; a
+  subscription hand-off + take + callback 5.4 us per message when 100 wait in the queue, 12.9 us
+  one at a time.
+
+Candidates not tried in this round (so not measured): one wake-up per batch (the executor drains
+every queued sample of a subscription per wake-up, as it does once awake, and zenoh's thread
+skips the wake while a drain is running), a short poll before the executor sleeps while a
+stream is flowing, and decoding in the executor's thread so zenoh's thread never holds the GIL
+for the codec. None of them touches the value copy per subscription, the attachment per sample
+or the sequence numbers.
+
 Stages (``--stages [--n 2000]``): one robocourse ping-pong with timing probes in both
 processes (``perf_counter_ns``, CLOCK_MONOTONIC, so stamps compare across processes on one
 machine): the p50 of each stage of the echo's hop and of the two zenoh legs.

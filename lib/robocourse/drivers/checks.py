@@ -155,7 +155,7 @@ def _reflex_reaches_the_caller(inputs, out):
     return f.done(f"a {inputs['stall_ms']} ms stall: ControlException reached the caller, the robot recovered")
 
 
-register("ch05.franka_loop", uses=("run_motion",), probe=franka_loop_probe, inputs=_inputs, time_limit=90,
+register("ch05.franka_loop", uses=("run_motion",), probe=franka_loop_probe, inputs=_inputs, time_limit=90, timing=True,
          schema=SCHEMA,
          subtests=[SubTest("the motion runs to its end under CPU load and pauses", 2.0, _runs_to_the_end),
                    SubTest("t is the robot's time (readOnce's durations)", 1.0, _gated(_robot_time)),
