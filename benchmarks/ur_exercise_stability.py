@@ -41,7 +41,7 @@ def reference():
 
 
 def stalled(rtde_c, rtde_r, path, duration):
-    rtde_c.setWatchdog(5.0)
+    rtde_c.setWatchdog(2.0)
     t0 = time.monotonic()
     while (t := time.monotonic() - t0) < duration:
         t_cycle = rtde_c.initPeriod()
