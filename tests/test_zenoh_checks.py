@@ -21,8 +21,21 @@ def parse_ok(data):
     data = bytes(data)
     if len(data) != 33:
         raise ValueError(f"{len(data)} bytes")
-    return {"sequence_number": int.from_bytes(data[:8], "little"),
-            "source_timestamp_ns": int.from_bytes(data[8:16], "little"), "gid": data[17:].hex()}
+    return {"sequence_number": int.from_bytes(data[:8], "little", signed=True),
+            "source_timestamp_ns": int.from_bytes(data[8:16], "little", signed=True), "gid": data[17:].hex()}
+
+
+def test_attachment_read_as_unsigned_scores_zero_on_the_negative_sequence_numbers_it_is_given():
+    def unsigned(data):
+        data = bytes(data)
+        if len(data) != 33:
+            raise ValueError(f"{len(data)} bytes")
+        return {"sequence_number": int.from_bytes(data[:8], "little"),
+                "source_timestamp_ns": int.from_bytes(data[8:16], "little"), "gid": data[17:].hex()}
+
+    for seed in range(5):
+        r = run("ch07.attachment", unsigned, seed=seed)
+        assert not r.passed and r.points == 0 and "int64: signed" in r.message, r.message
 
 
 def test_attachment_check_passes_and_names_byte_order_gid_and_length_mistakes():

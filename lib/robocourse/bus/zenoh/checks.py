@@ -27,11 +27,17 @@ from . import wire
 
 def _att_inputs(rng):
     good = []
-    for _ in range(6):
-        seq = int(rng.integers(1, 2**40))
+    # int64 fields: besides ordinary values, negative ones (a sequence number is signed in rmw_zenoh:
+    # an unsigned reading turns -1 into 18446744073709551615) and the extremes of the type
+    seqs = [int(rng.integers(1, 2**40)) for _ in range(4)] + [-int(rng.integers(1, 2**40)), -(2**63), 2**63 - 1]
+    for i, seq in enumerate(seqs):
         ts = int(rng.integers(1_600_000_000, 2_000_000_000)) * 1_000_000_000 + int(rng.integers(0, 10**9))
+        if i == 5:
+            ts = -int(rng.integers(1, 10**12))       # a stamp before 1970: still an int64
         gid = bytes(int(b) for b in rng.integers(0, 256, 16))
         good.append({"hex": wire.encode_attachment(seq, gid, ts).hex(), "seq": seq, "ts": ts, "gid": gid.hex()})
+    order = rng.permutation(len(good))
+    good = [good[int(i)] for i in order]
     old = b"".join(len(s).to_bytes(1, "little") + s.encode() + v
                    for s, v in (("sequence_number", bytes(8)), ("source_timestamp", bytes(8)),
                                 ("source_gid", b"\x10" + bytes(16))))          # the pre-2025 named form
@@ -67,6 +73,8 @@ def check_attachment(inputs, out):
                 if k != "gid" and isinstance(g, int) and g == int.from_bytes(
                         int(w).to_bytes(8, "little", signed=True), "big", signed=True):
                     hint = " (byte order: the integers are little-endian)"
+                elif k != "gid" and isinstance(g, int) and w < 0 and g == w + 2**64:
+                    hint = " (the fields are int64: signed, int.from_bytes(..., signed=True))"
                 elif k == "gid":
                     hint = " (the GID is the last 16 bytes, after the 0x10 length byte; give it as hex)"
                 f.add(f"{k}: got {g!r}, expected {w!r} for attachment {case['hex']}{hint}")
