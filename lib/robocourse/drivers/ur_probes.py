@@ -21,7 +21,7 @@ MAX_LAG_S = 0.12           # the arm may follow the wall-clock path this late (s
                            # a loop at k * dt stays HICCUP_S later still)
 MAX_RESIDUAL = 0.05        # rad: the median error left after shifting by the lag (a median: a short stall of
                            # a loaded machine makes a burst, a loop that falls behind makes it all the way)
-CYCLE_S = (0.001, 0.004)   # the loop's typical cycle (median interval between path() calls): 2 ms paced;
+CYCLE_S = (0.001, 0.006)   # the loop's typical cycle (median interval between path() calls): 2 ms paced, up to 6 on a loaded machine;
                            # a 100 Hz loop (10 ms) or a busy one (microseconds) falls outside
 MAX_HZ = 650.0             # more RTDE packages than 2 x this per s: a flood
 RETURN_WITHIN_S = 0.5      # after the watchdog stopped the robot, follow_path must have returned by then
