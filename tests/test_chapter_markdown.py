@@ -40,18 +40,6 @@ KNOWN_VIOLATIONS: dict[str, list[str]] = {
         "- **limits**: commands are clamped to [-1, 1] (the library's `MotorDriver.set_motor_speeds` does that, and refuses NaN), and `max_duty` keeps a 7.4 V motor on an 8.4 V battery below its rating.",
         "For motion we need a car: `robocourse.sim.car.MujocoCar` is a MuJoCo model (chassis, two velocity-servoed wheels with a torque limit, casters), `MujocoMotorDriver` drives its wheels through the same `MotorDriver` interface, and the library's `SimulatorNode` steps the physics on a timer (its `rate_hz`, 200 Hz by default) and publishes **`/ground_truth`**: the chassis pose as MuJoCo knows it, in the `world` frame.",
     ],
-    'chapters/04_ros2_control.ipynb': [
-        "`cm.run_realtime(seconds)` runs ros2_control_node's loop on the wall clock: absolute deadlines at the manager's `update_rate`, each stage timed (`read` = MuJoCo state -> state interfaces; `update` = the two active controllers; `write` = commands -> MuJoCo, which also steps the physics 2 ms).",
-        'If `on_activate` does not copy the measured positions into the commands, the first `write()` after activation sends 0.0 rad to every motor.',
-        "The forgetful board drives both motors to 0 rad at the board's speed limit the moment it becomes active, with no controller running at all: on a real arm that is a swing into whatever is nearby.",
-        'A controller may run slower than the manager: `update_rate: 30` under a 100 Hz manager.',
-        'The rolling manager runs it every `round(100 / 30) = 3` cycles, so its real rate is 100 / 3 = 33 Hz (it logs that), and its `update()` receives the longer `period`.',
-        '**A path tolerance violation aborts the goal.** A faster move (back home in 0.6 s) with a path tolerance on `shoulder_lift_joint`, sent with the goal, of a quarter of the largest error it showed above.',
-        '`parallel_gripper_action_controller/GripperActionController` drives one joint (here `finger_joint`, the finger opening in m, stroke 0 to 0.04 m) through the `~/gripper_cmd` action (control_msgs/ParallelGripperCommand).',
-        'Below, a 3 cm box stands on a table between the open fingers.',
-        "The experiment (`robocourse.control.wall_push`): a table 4 cm below the gripper's tool centre point; the trajectory asks the tool to go 8 cm down in 2 s, to a point 4 cm *below* the table's surface.",
-        "**Send** builds a one-point `JointTrajectory` to the sliders' pose, sends it as a `FollowJointTrajectory` goal with the duration you pick, runs the manager until the result arrives and draws the arm live; the result line shows what the JTC answered (try a 0.3 s move with a path tolerance, or a pose beyond a joint limit).",
-    ],
     'chapters/05_hardware_drivers.ipynb': [
         '| transport | UDP, 1 kHz, synchronous | TCP: RTDE state stream 500 Hz + servoj targets |',
     ],
@@ -61,17 +49,8 @@ KNOWN_VIOLATIONS: dict[str, list[str]] = {
         '- **execute** (an `async def`): every 0.05 s (`await self.sleep_async(0.05)`) read the latest odometry; if a cancel was requested, stop the car (a zero Twist), call `goal_handle.canceled()` and return a result with `success=False`; publish `percent_complete` feedback (0 at the start, 100 at the goal); once within 5 cm of the goal *position* (heading does not matter here) stop, `succeed()` and return `success=True`; otherwise turn towards the goal and drive when roughly facing it.',
         'The grader runs the library\'s driver node on a kinematic motor driver beside your server and sends a reachable goal, a goal in `"map"`, a NaN goal and a far goal it cancels after 1 s.',
     ],
-    'solutions/04_ros2_control_exercises.ipynb': [
-        '- the controller manager at **200 Hz**;',
-        '- `arm_controller`, a `joint_trajectory_controller/JointTrajectoryController` on `joint1`, `joint2` commanding `position` and reading `position` and `velocity`, with `constraints`: `goal_time` 1.0 s and a `goal` tolerance of 0.01 rad for each joint;',
-        'Choose the gains so that the tool yields `deflection` (m) at rest, does not overshoot it, and settles (within 2 %) in at most `settle` s.',
-    ],
     'solutions/05_hardware_drivers_exercises.ipynb': [
         "The Franka-style box sends a STATE every 1 ms and wants a COMMAND carrying that state's `seq` before its next tick (`robocourse.drivers.franka_protocol` documents the bytes; use its `HEADER`, `state_struct(n)`, `encode_command` and constants).",
-    ],
-    'solutions/07_graph_across_processes_exercises.ipynb': [
-        '| 17-32 | the GID, 16 bytes |',
-        "Anything that is not this 33-byte form (for example rmw_zenoh's pre-2025 attachment, 77 bytes with field names inside) must raise `ValueError` naming the length.",
     ],
 }
 
