@@ -7,13 +7,15 @@ itself, twice:
 
 - **run A, tracking**: ``path(t)`` is a seeded smooth motion of the first joints. The grader's
   ``path`` stalls once for ``HICCUP_S`` (shorter than the watchdog's window: a gc pause, say) and
-  the whole run is under chapter 1's CPU load (:class:`robocourse.rt.disturb.CpuLoad`, one busy
-  process). The box records the arm's trajectory on ``CLOCK_MONOTONIC`` (``robocourse
+  the check adds no load of its own: its stability under chapter 1's CPU load is measured by
+  running it under :class:`robocourse.rt.disturb.CpuLoad` (``benchmarks/ur_exercise_stability.py``,
+  and the bank's timing runs in CI). The box records the arm's trajectory on ``CLOCK_MONOTONIC`` (``robocourse
   trace``); the judge compares it with the *wall-clock* path: the arm must follow ``path`` with
   a lag of at most ``MAX_LAG_S`` and a residual of at most ``MAX_RESIDUAL`` rad after the hiccup
   (a loop that samples the path at ``k * dt`` falls behind by every stall and never catches up).
-  The loop must keep a 2 ms cycle (the median interval between its ``path()`` calls within
-  ``CYCLE_S``; a flood of packages above ``2 * MAX_HZ`` per s fails too),
+  The loop must be paced at 2 ms (the 10th percentile of the intervals between its ``path()``
+  calls within ``CYCLE_S``: on a loaded machine most cycles run late, but a paced loop's fastest
+  ones still take one period; a flood above ``2 * MAX_HZ`` packages per s fails too),
   no watchdog stop, and ``servoStop`` at the end.
 - **run B, the stall**: ``path`` stalls for ``STALL_S``, far longer than the watchdog's
   ``1 / WATCHDOG_HZ``. The robot must stop its program (the RTDE watchdog the loop set) and
@@ -131,7 +133,7 @@ def _tracking(inputs, out):
     if problems:
         raise CheckFailed(*problems)
     return (f"followed the wall-clock path {lag * 1e3:.0f} ms late (median residual {resid * 1e3:.1f} mrad) through "
-            f"a {HICCUP_S * 1e3:.0f} ms pause and CPU load")
+            f"a {HICCUP_S * 1e3:.0f} ms pause")
 
 
 def _pacing(inputs, out):
@@ -147,20 +149,20 @@ def _pacing(inputs, out):
         raise CheckFailed(f"your loop sent {packages} RTDE packages in {duration:.2f} s ({packages / duration:.0f} "
                           "per s): one servoJ per 2 ms cycle is 500 per s; pace it with t = rtde_c.initPeriod() ... "
                           "rtde_c.waitPeriod(t)")
-    # the cycle the loop keeps when it runs: the median interval between its path() calls (a loaded
-    # machine makes some cycles late, not the typical one)
+    # the cycle the loop keeps when it gets the CPU: the 10th percentile of the intervals between its
+    # path() calls (a loaded machine makes most cycles late, never shorter than the loop's own period)
     gaps = np.diff([c[0] for c in calls] + [a["t_end"]])
-    typical = float(np.median(gaps)) if len(gaps) else math.inf
+    typical = float(np.percentile(gaps, 10)) if len(gaps) else math.inf
     if gaps.max() >= 1.0 / WATCHDOG_HZ:
         raise CheckFailed(f"your loop went {gaps.max() * 1e3:.0f} ms without a cycle (no path() call, no servoJ) "
                           f"although path() paused only {HICCUP_S * 1e3:.0f} ms: a loop that stops streaming leaves "
                           "the robot to its watchdog; keep one servoJ per 2 ms cycle until the duration is over")
     if not CYCLE_S[0] <= typical <= CYCLE_S[1]:
-        raise CheckFailed(f"your loop ran one cycle every {typical * 1e3:.2f} ms (the median interval between its "
-                          f"path() calls; {servo / duration:.0f} servoJ targets per s): one servoJ per 2 ms cycle, "
-                          f"accepted {CYCLE_S[0] * 1e3:g}-{CYCLE_S[1] * 1e3:g} ms; pace it with "
-                          "t = rtde_c.initPeriod() ... rtde_c.waitPeriod(t) and call path() once per cycle")
-    return f"one cycle every {typical * 1e3:.2f} ms (median), {servo / duration:.0f} servoJ targets per s"
+        raise CheckFailed(f"your loop's fastest cycles took {typical * 1e3:.2f} ms (the 10th percentile of the "
+                          f"intervals between its path() calls; {servo / duration:.0f} servoJ targets per s): one "
+                          f"servoJ per 2 ms cycle, accepted {CYCLE_S[0] * 1e3:g}-{CYCLE_S[1] * 1e3:g} ms; pace it "
+                          "with t = rtde_c.initPeriod() ... rtde_c.waitPeriod(t) and call path() once per cycle")
+    return f"fastest cycles {typical * 1e3:.2f} ms (10th percentile), {servo / duration:.0f} servoJ targets per s"
 
 
 def _end(inputs, out):
@@ -206,7 +208,7 @@ def _stall(inputs, out):
 
 register("ch05.ur_servo_loop", uses=("follow_path",), probe=ur_servo_loop_probe, inputs=_inputs, time_limit=60,
          schema=SCHEMA, max_bytes=4_000_000,
-         subtests=[SubTest("follows the wall-clock path through a pause and CPU load", 1.5, _tracking),
+         subtests=[SubTest("follows the wall-clock path through a pause", 1.5, _tracking),
                    SubTest("one servoJ per 2 ms cycle (initPeriod / waitPeriod)", 1.0, _pacing),
                    SubTest("servoStop at the end, True returned", 0.5, _end),
                    SubTest("a stall stops the robot (setWatchdog) and follow_path returns False", 2.0, _stall)])

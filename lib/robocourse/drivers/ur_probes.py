@@ -21,8 +21,8 @@ MAX_LAG_S = 0.12           # the arm may follow the wall-clock path this late (s
                            # a loop at k * dt stays HICCUP_S later still)
 MAX_RESIDUAL = 0.05        # rad: the median error left after shifting by the lag (a median: a short stall of
                            # a loaded machine makes a burst, a loop that falls behind makes it all the way)
-CYCLE_S = (0.001, 0.006)   # the loop's typical cycle (median interval between path() calls): 2 ms paced, up to 6 on a loaded machine;
-                           # a 100 Hz loop (10 ms) or a busy one (microseconds) falls outside
+CYCLE_S = (0.001, 0.006)   # the loop's fastest cycles (10th percentile of the intervals between path() calls):
+                           # 2 ms paced; a 100 Hz loop (10 ms) or a busy one (microseconds) falls outside
 MAX_HZ = 650.0             # more RTDE packages than 2 x this per s: a flood
 RETURN_WITHIN_S = 0.5      # after the watchdog stopped the robot, follow_path must have returned by then
 
@@ -46,15 +46,12 @@ def ur_servo_loop_probe(inputs, follow_path):
     import rtde_control
     import rtde_receive
 
-    from robocourse.rt.disturb import CpuLoad
-
     from . import start_ur_box
     from .ur_box import read_stats, read_trace
 
     out = {"error": None}
     box = start_ur_box(realtime=True)
     r = c = None
-    load = contextlib.ExitStack()
     try:
         r = rtde_receive.RTDEReceiveInterface(box.host, 500.0, ["timestamp", "actual_q", "runtime_state"])
         c = rtde_control.RTDEControlInterface(box.host)
@@ -80,8 +77,6 @@ def ur_servo_loop_probe(inputs, follow_path):
                 time.sleep(0.01)
             before = read_stats(box.host)
             calls: list = []
-            if run == "A":
-                load.enter_context(CpuLoad(processes=1))
             t_start = time.monotonic()
             try:
                 result = follow_path(c, r, recorder(stall_at, stall_s, calls), seconds)
@@ -90,7 +85,6 @@ def ur_servo_loop_probe(inputs, follow_path):
                 result, raised = None, f"{type(exc).__name__}: {str(exc)[:200]}"
             t_end = time.monotonic()
             after = read_stats(box.host)      # at once: the watchdog the loop left armed may stop it later
-            load.close()
             trace = read_trace(box.host)
             keep = [i for i, t in enumerate(trace["t"]) if t_start - 0.05 <= t <= t_end + 0.3]
             out[run] = {"returned": result if isinstance(result, (bool, int, float, type(None))) else repr(result)[:80],
@@ -102,7 +96,6 @@ def ur_servo_loop_probe(inputs, follow_path):
     except Exception as exc:  # noqa: BLE001
         out["error"] = f"{type(exc).__name__}: {str(exc)[:300]}"
     finally:
-        load.close()
         for client in (c, r):
             if client is not None:
                 with contextlib.suppress(Exception):
