@@ -125,7 +125,7 @@ def _tracking(inputs, out):
     problems = []
     if a.get("raised"):
         problems.append(f"follow_path raised {a['raised']} in the tracking run")
-    if _delta(a, "watchdog_stops") and _stopped_at(a) < calls[-1][0]:    # not the final servoStop's wait
+    if _delta(a, "watchdog_stops") and _stopped_at(a) < calls[0][0] + RUN_A_S:   # not the final servoStop's wait
         problems.append("the robot stopped its program during the tracking run (the RTDE watchdog fired although "
                         f"path() paused only {HICCUP_S * 1e3:.0f} ms once): the loop left the robot without a "
                         f"command for more than 1/{WATCHDOG_HZ:g} s")
@@ -160,7 +160,7 @@ def _pacing(inputs, out):
                           "rtde_c.waitPeriod(t)")
     # the cycle the loop keeps when it gets the CPU: the 10th percentile of the intervals between its
     # path() calls (a loaded machine makes most cycles late, never shorter than the loop's own period)
-    gaps = np.diff([c[0] for c in calls])
+    gaps = np.diff([c[0] for c in calls] + [min(a["t_end"], calls[0][0] + RUN_A_S)])   # to the run's end, not the stop
     typical = float(np.percentile(gaps, 10)) if len(gaps) else math.inf
     if gaps.max() >= 1.0 / WATCHDOG_HZ:
         raise CheckFailed(f"your loop went {gaps.max() * 1e3:.0f} ms without a cycle (no path() call, no servoJ) "
