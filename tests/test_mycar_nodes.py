@@ -9,6 +9,7 @@ import pytest
 from robocourse.bus import Context, Parameter
 from robocourse.bus.action import ActionClient
 from robocourse.msgs.geometry_msgs import Twist
+from robocourse.launch import LaunchError
 from robocourse.mycar.launch import launch, load_parameters
 from robocourse.mycar.mission import goal_for, run_mission
 from robocourse.mycar.msgs import NavigateToPose, SetLed
@@ -133,7 +134,7 @@ def test_parameters_are_validated():
     assert not node.set_parameters([Parameter("wheel_radius", value=0.0)])[0].successful
     assert node.set_parameters([Parameter("wheel_base", value=0.2)])[0].successful
     assert node.geometry.wheel_base == 0.2
-    with pytest.raises(ValueError, match="needs a driver object"):
+    with pytest.raises(ValueError, match="no SimulatorNode runs in this context"):
         DriverNode(context=ctx, name="driver_mj", parameter_overrides=[Parameter("driver", value="mujoco")])
     ctx.shutdown()
 
@@ -145,7 +146,8 @@ def test_launch_file_errors_are_clear(tmp_path):
     bad.write_text("driver_node:\n  wheel_base: 0.2\n")
     with pytest.raises(ValueError, match="ros__parameters"):
         load_parameters(bad)
-    with pytest.raises(ValueError, match="use 'simulated' or 'mujoco'"):
+    with pytest.raises(LaunchError, match=r"\[driver_node-2\] mycar/driver_node failed to start: ValueError: driver "
+                                          r"parameter 'pwm': use 'simulated'"):
         launch(overrides={"driver_node": {"driver": "pwm"}})
 
 
@@ -254,22 +256,10 @@ def test_navigation_reports_the_true_error_beside_the_odometry_one(car):
 
 
 def test_navigation_without_ground_truth_says_so():
-    c = launch(overrides={"driver_node": {"driver": "simulated"}})
+    c = launch(use_sim=False)
     c.client = c.context.create_node("test_client")
     c.executor.add_node(c.client)
     _, res, _ = _navigate(c, goal_for(0.3, 0.0))
     assert res.result.success and math.isnan(res.result.true_position_error)
     assert "no /ground_truth" in res.result.message
     c.context.try_shutdown()
-
-
-def test_tf_buffer_chains_and_inverts():
-    from robocourse.mycar.navigation import TfBuffer2D, compose, invert
-
-    a = (1.0, 2.0, 0.7)
-    assert compose(a, invert(a)) == pytest.approx((0.0, 0.0, 0.0), abs=1e-12)
-    buf = TfBuffer2D()
-    buf.edges = {("map", "odom"): (1.0, 0.0, math.pi / 2), ("odom", "base_link"): (0.5, 0.0, 0.0)}
-    assert buf.lookup("map", "base_link") == pytest.approx((1.0, 0.5, math.pi / 2))
-    assert buf.lookup("base_link", "map") == pytest.approx(invert((1.0, 0.5, math.pi / 2)))
-    assert buf.lookup("odom", "camera") is None

@@ -13,7 +13,9 @@ import math
 
 from robocourse.bus import (
     FloatingPointRange,
+    IntegerRange,
     Node,
+    Parameter,
     ParameterDescriptor,
     QoSProfile,
     ReliabilityPolicy,
@@ -37,6 +39,8 @@ _POSITIVE = {
     "max_linear_speed": (0.5, 0.01, 10.0, "wheel speed at motor command 1.0 [m/s], for normalisation"),
     "odom_rate_hz": (50.0, 1.0, 1000.0, "odometry publish rate [Hz]"),
     "watchdog_timeout": (0.2, 0.01, 10.0, "stop the motors after this long without /cmd_vel [s]"),
+    "wheel_separation_multiplier": (1.0, 0.5, 2.0, "calibration: the effective wheel base is wheel_base times "
+                                                   "this (diff_drive_controller's parameter)"),
 }
 
 
@@ -62,10 +66,7 @@ class DriverNode(Node):
         self.add_on_set_parameters_callback(self._on_parameters)
         kind = self.get_parameter("driver").value
         if driver is None:
-            if kind != "simulated":
-                raise ValueError(f"driver parameter {kind!r} needs a driver object: pass MujocoMotorDriver(car) "
-                                 "(launch() does this for driver: mujoco)")
-            driver = SimulatedMotorDriver()
+            driver = self._driver_for(kind)
         self.driver = driver
         self.driver.init()
         self.pose = (0.0, 0.0, 0.0)
@@ -85,11 +86,25 @@ class DriverNode(Node):
         self.create_timer(1.0, self.publish_diagnostics)
         self._last_odom_ns = self.get_clock().now().nanoseconds
 
+    def _driver_for(self, kind: str) -> MotorDriver:
+        if kind == "simulated":
+            return SimulatedMotorDriver()
+        if kind == "mujoco":   # the car of the simulator node started before us (a Gazebo plugin finds its world)
+            sims = [n for n in self.context.nodes if isinstance(n, SimulatorNode)]
+            if not sims:
+                raise ValueError("driver: mujoco drives the simulator's car, and no SimulatorNode runs in this "
+                                 "context: start the simulator first (executable 'simulator' in a launch file) or "
+                                 "pass MujocoMotorDriver(car)")
+            return MujocoMotorDriver(sims[-1].car)
+        raise ValueError(f"driver parameter {kind!r}: use 'simulated' (logs PWM) or 'mujoco' (the simulator's car)")
+
     @property
     def geometry(self) -> kin.DiffDriveGeometry:
-        """The car's geometry from the current parameters (a parameter change applies at once)."""
-        return kin.DiffDriveGeometry(self.get_parameter("wheel_base").value, self.get_parameter("wheel_radius").value,
-                                     self.get_parameter("max_linear_speed").value)
+        """The geometry odometry and the drive formula use, from the current parameters (a change
+        applies at once): the wheel base is ``wheel_base * wheel_separation_multiplier``."""
+        return kin.DiffDriveGeometry(
+            self.get_parameter("wheel_base").value * self.get_parameter("wheel_separation_multiplier").value,
+            self.get_parameter("wheel_radius").value, self.get_parameter("max_linear_speed").value)
 
     def _on_parameters(self, params):
         for p in params:
@@ -170,16 +185,34 @@ class DriverNode(Node):
         self.diag_pub.publish(arr)
 
 
+_BUILD = {
+    "wheel_base": (0.15, 0.02, 2.0, "distance between the wheel centres of the model [m]"),
+    "wheel_radius": (0.0325, 0.005, 0.5, "wheel radius of the model [m]"),
+    "max_linear_speed": (0.5, 0.01, 10.0, "wheel speed at motor command 1.0 [m/s]"),
+    "rate_hz": (200.0, 10.0, 2000.0, "physics steps published per second [Hz]"),
+}
+
+
 class SimulatorNode(Node):
     """Steps the MuJoCo car (ground truth) on a timer and publishes ``/ground_truth`` (Odometry).
 
     Counterpart of a Gazebo/MuJoCo simulator node; not in the seed (which had no physics).
+    Without a ``car`` it builds one from its parameters (the model's dimensions, as built:
+    odometry's calibration lives in the driver's parameters, not here).
     """
 
-    def __init__(self, car, rate_hz: float = 200.0, name: str = "mycar_sim", **kwargs):
+    def __init__(self, car=None, rate_hz: float | None = None, name: str = "mycar_sim", **kwargs):
         super().__init__(name, **kwargs)
+        declare_ranged(self, _BUILD)
+        if rate_hz is not None:
+            self.set_parameters([Parameter("rate_hz", value=float(rate_hz))])
+        if car is None:
+            from robocourse.sim.car import MujocoCar
+
+            car = MujocoCar(kin.DiffDriveGeometry(*(self.get_parameter(k).value for k in
+                                                    ("wheel_base", "wheel_radius", "max_linear_speed"))))
         self.car = car
-        self.dt = 1.0 / rate_hz
+        self.dt = 1.0 / self.get_parameter("rate_hz").value
         self.truth_pub = self.create_publisher(Odometry, "/ground_truth", QOS_ODOM)
         self.create_timer(self.dt, self.step)
         self.steps = 0
@@ -199,18 +232,19 @@ class SimulatorNode(Node):
 
 
 class LedServiceServer(Node):
-    """The seed's ``/set_led`` service: LEDs 1 and 2 exist; any other id fails with a warning."""
-
-    VALID = (1, 2)
+    """The seed's ``/set_led`` service: LEDs 1..led_count (2) exist; any other id fails with a warning."""
 
     def __init__(self, name: str = "led_service_server", **kwargs):
         super().__init__(name, **kwargs)
-        self.leds = {i: False for i in self.VALID}
+        self.declare_parameter("led_count", 2, ParameterDescriptor(
+            description="LEDs 1..led_count exist", read_only=True, integer_range=[IntegerRange(
+                from_value=1, to_value=64)]))
+        self.leds = {i: False for i in range(1, self.get_parameter("led_count").value + 1)}
         self.create_service(SetLed, "/set_led", self.on_set_led)
 
     def on_set_led(self, request, response):
         if request.led_id not in self.leds:
-            self.get_logger().warning(f"Invalid LED ID: {request.led_id} (valid: {', '.join(map(str, self.VALID))})")
+            self.get_logger().warning(f"Invalid LED ID: {request.led_id} (valid: 1..{len(self.leds)})")
             response.success = False
             return response
         self.leds[request.led_id] = bool(request.state)
