@@ -5,6 +5,11 @@ Topics and QoS as in the seed: ``/cmd_vel`` geometry_msgs/Twist RELIABLE VOLATIL
 ``/odom`` nav_msgs/Odometry BEST_EFFORT at ``odom_rate_hz`` (50); ``/tf`` odom -> base_link;
 ``/diagnostics`` at 1 Hz. The watchdog stops the motors when no /cmd_vel arrived for
 ``watchdog_timeout`` (0.2 s), logs it once, and motion resumes with the next command.
+Calibration and limits as diff_drive_controller's: ``wheel_separation_multiplier`` scales the
+wheel base odometry and the drive formula use; ``max_linear_acceleration`` /
+``max_angular_acceleration`` (0: none) ramp the command every 10 ms towards the last /cmd_vel (a
+wheel asked for more than the floor's grip slips, and odometry counts the slip as motion); the
+watchdog's stop is immediate, never ramped.
 """
 
 from __future__ import annotations
@@ -44,6 +49,15 @@ _POSITIVE = {
 }
 
 
+_LIMITS = {
+    "max_linear_acceleration": (0.0, 0.0, 100.0, "ramp linear.x by at most this [m/s^2]; 0: no limit "
+                                                 "(diff_drive_controller's linear.x.max_acceleration)"),
+    "max_angular_acceleration": (0.0, 0.0, 1000.0, "ramp angular.z by at most this [rad/s^2]; 0: no limit "
+                                                   "(diff_drive_controller's angular.z.max_acceleration)"),
+}
+RAMP_PERIOD_S = 0.01   # how often a limited command steps towards the last /cmd_vel
+
+
 def declare_ranged(node: Node, table: dict) -> None:
     """Declare float parameters from ``{name: (default, min, max, description)}`` with their ranges."""
     for pname, (default, lo, hi, text) in table.items():
@@ -61,6 +75,7 @@ class DriverNode(Node):
     def __init__(self, driver: MotorDriver | None = None, name: str = "driver_node", **kwargs):
         super().__init__(name, **kwargs)
         declare_ranged(self, _POSITIVE)
+        declare_ranged(self, _LIMITS)
         self.declare_parameter("driver", "simulated", ParameterDescriptor(
             description="simulated (logs PWM) or mujoco (drives the physical model)", read_only=True))
         self.add_on_set_parameters_callback(self._on_parameters)
@@ -83,6 +98,9 @@ class DriverNode(Node):
         period = 1.0 / self.get_parameter("odom_rate_hz").value
         self.odom_timer = self.create_timer(period, self.on_odom_timer)
         self.watchdog_timer = self.create_timer(0.01, self.on_watchdog)
+        self.target = (0.0, 0.0)     # the last valid /cmd_vel (v, w)
+        self.applied = (0.0, 0.0)    # what the motors are told now (ramped towards target when limited)
+        self.ramp_timer = self.create_timer(RAMP_PERIOD_S, self.on_ramp)
         self.create_timer(1.0, self.publish_diagnostics)
         self._last_odom_ns = self.get_clock().now().nanoseconds
 
@@ -122,8 +140,29 @@ class DriverNode(Node):
         if not (math.isfinite(v) and math.isfinite(w)):
             self.get_logger().error(f"ignoring /cmd_vel with non-finite values (linear.x={v}, angular.z={w})")
             return
+        self.target = (v, w)
+        if not self._limited():
+            self._apply(v, w)
+
+    def _limited(self) -> bool:
+        return self.get_parameter("max_linear_acceleration").value > 0 or \
+            self.get_parameter("max_angular_acceleration").value > 0
+
+    def _apply(self, v: float, w: float) -> None:
+        self.applied = (v, w)
         left, right = kin.twist_to_motor_commands(v, w, self.geometry)
         self.driver.set_motor_speeds(left, right)
+
+    def on_ramp(self) -> None:
+        """Step the applied twist towards the target within the acceleration limits."""
+        if self.watchdog_tripped or self.applied == self.target or not self._limited():
+            return
+        out = []
+        for now, want, name in zip(self.applied, self.target, ("max_linear_acceleration", "max_angular_acceleration")):
+            a = self.get_parameter(name).value
+            step = a * RAMP_PERIOD_S if a > 0 else math.inf
+            out.append(now + max(-step, min(step, want - now)))
+        self._apply(*out)
 
     def on_watchdog(self) -> None:
         if self.last_cmd_ns is None or self.watchdog_tripped:
@@ -131,6 +170,7 @@ class DriverNode(Node):
         age = (self.get_clock().now().nanoseconds - self.last_cmd_ns) * 1e-9
         if age > self.get_parameter("watchdog_timeout").value:
             self.driver.emergency_stop()
+            self.target = self.applied = (0.0, 0.0)
             self.watchdog_tripped = True
             self.watchdog_trips += 1
             self.tripped_at_age = age
