@@ -37,7 +37,7 @@ from .actions import (
     Node,
     UnlessCondition,
 )
-from .runner import LaunchedSystem, LaunchError, executables, launch
+from .runner import LaunchedSystem, LaunchError, executables, launch, show_args
 
 __all__ = ["Condition", "DeclareLaunchArgument", "IfCondition", "LaunchConfiguration", "LaunchDescription",
-           "LaunchError", "LaunchedSystem", "Node", "UnlessCondition", "executables", "launch"]
+           "LaunchError", "LaunchedSystem", "Node", "UnlessCondition", "executables", "launch", "show_args"]

@@ -78,6 +78,19 @@ class MyCar:
     def nodes(self):
         return [n for n in (self.simulator, self.driver, self.led, self.navigation) if n is not None]
 
+    @classmethod
+    def from_system(cls, system: LaunchedSystem) -> MyCar:
+        """The car's nodes out of a launched description (any launch file that starts them)."""
+        def one(kind, required=True):
+            found = [n for n in system.nodes if isinstance(n, kind)]
+            if len(found) > 1 or (required and not found):
+                raise ValueError(f"the launch started {len(found)} {kind.__name__} nodes; a MyCar has exactly one"
+                                 + ("" if required else " or none"))
+            return found[0] if found else None
+
+        return cls(system.context, one(DriverNode), one(LedServiceServer), one(NavigationActionServer),
+                   one(SimulatorNode, required=False), system.executor, system)
+
 
 def launch(context: Context | None = None, config=DEFAULT_CONFIG, overrides: dict | None = None,
            multithreaded: bool = False, use_sim: bool = True) -> MyCar:
@@ -107,6 +120,4 @@ def launch(context: Context | None = None, config=DEFAULT_CONFIG, overrides: dic
     finally:
         if tmp is not None:
             Path(tmp.name).unlink(missing_ok=True)
-    by_type = {type(n): n for n in system.nodes}
-    return MyCar(ctx, by_type[DriverNode], by_type[LedServiceServer], by_type[NavigationActionServer],
-                 by_type.get(SimulatorNode), ex, system)
+    return MyCar.from_system(system)
