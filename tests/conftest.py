@@ -1,4 +1,4 @@
-"""Shared test fixtures and the per-notebook time budget."""
+"""Shared test fixtures and the per-notebook safety-net timeout."""
 
 from __future__ import annotations
 
@@ -7,7 +7,10 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-NOTEBOOK_BUDGET_S = 60  # a notebook that needs more than this headless is a bug (issue 2)
+#: A notebook executed by nbmake is stopped after this long. A safety net, not the budget: the goal
+#: is 60 s headless on a quiet machine, measured by benchmarks/notebook_times.py (issue 25: a
+#: loaded machine made a 60 s test timeout fail a clean clone's CI for no fault of the course).
+NOTEBOOK_TIMEOUT_S = 240
 
 
 @pytest.fixture
@@ -16,7 +19,7 @@ def root() -> Path:
 
 
 def pytest_collection_modifyitems(config, items):
-    """Give every notebook executed by nbmake a hard 60 s limit (nbmake's own is per cell)."""
+    """Give every notebook executed by nbmake the safety-net limit (nbmake's own is per cell)."""
     for item in items:
         if str(getattr(item, "path", "")).endswith(".ipynb"):
-            item.add_marker(pytest.mark.timeout(NOTEBOOK_BUDGET_S))
+            item.add_marker(pytest.mark.timeout(NOTEBOOK_TIMEOUT_S))

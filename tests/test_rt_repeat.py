@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from robocourse.rt import FakeClock, PeriodicLoop, Sleep
-from robocourse.rt.repeat import compare_sentence, measure_rounds
+from robocourse.rt.repeat import measure_rounds
 
 
 class Fixed:
@@ -39,14 +39,21 @@ def test_median_and_range_over_rounds():
     assert "median [lowest-highest] over 3 rounds" in rep.table(("p50",))
 
 
-def test_sentence_says_lower_only_when_the_rounds_agree():
-    rep = measure_rounds({"a": _sequence([1000] * 5), "b": _sequence([2000] * 5)}, rounds=5)
-    assert "lower than b's in all 5 rounds" in compare_sentence(rep, "a", "b", "p50")
-    assert "higher than a's in all 5 rounds" in compare_sentence(rep, "b", "a", "p50")
+def test_claim_says_lower_only_when_every_round_is_apart():
+    rep = measure_rounds({"a": _sequence([1000] * 5), "b": _sequence([2000, 2100, 1900, 2000, 2050])}, rounds=5)
+    c = rep.claim("a", "b", "p50")
+    assert c.verdict == "lower" and "**a lower than b** in every round" in c.text
+    assert "a 1.0 us [1.0–1.0], b 2.0 us [1.9–2.1]" in c.text and "of 5 rounds" in c.text
+    assert rep.claim("b", "a", "p50").verdict == "higher"
     mixed = measure_rounds({"a": _sequence([1, 3, 1, 3, 1]), "b": _sequence([2] * 5)}, rounds=5)
-    text = compare_sentence(mixed, "a", "b", "p50", scale=1, unit="ns", digits=0)
-    assert "not consistently different from b's: lower in 3, higher in 2 of 5 rounds" in text
-    assert text.startswith("a: median p50 1 ns (range 1 ns to 3 ns)")
+    text = mixed.claim("a", "b", "p50", scale=1, unit="ns", digits=0).text
+    assert "**this run cannot tell** a from b: their ranges overlap; a was lower in 3 of 5 rounds" in text
+
+
+def test_claim_of_one_experiment_against_a_limit():
+    rep = measure_rounds({"a": _sequence([40_000, 60_000, 45_000])}, rounds=3)
+    c = rep.claim("a", None, "max", limit=50_000, limit_name="the 5 % budget")
+    assert c.verdict == "mixed" and "above the 5 % budget (50.0 us) in 1 of 3 rounds" in c.text
 
 
 def test_real_loops_are_measured_each_round():
@@ -72,7 +79,16 @@ def test_unknown_metric_is_named():
         rep.median("a", "p42")
 
 
-def test_progress_bar_counts_every_run(capsys):
+def test_progress_line_counts_every_run(monkeypatch):
+    from robocourse.notebook import progress_line as progress_mod
+
+    seen = []
+
+    class Recording(progress_mod.progress):
+        def close(self):
+            seen.append((self.n, self.total, self.desc))
+            super().close()
+
+    monkeypatch.setattr(progress_mod, "progress", Recording)
     rep = measure_rounds({"a": _sequence([1, 2]), "b": _sequence([3, 4])}, rounds=2, progress=True)
-    err = capsys.readouterr().err
-    assert rep.rounds == 2 and "runs:" in err and "/4" in err
+    assert rep.rounds == 2 and seen == [(4, 4, "runs")]

@@ -90,6 +90,8 @@ MANIFEST: tuple[Rule, ...] = (
     # tests: the library's unit tests and notebook execution, not the instructor's
     Rule("exclude", "tests/test_release.py", "builds an edition from solutions/"),
     Rule("exclude", "tests/test_notebooks_clean.py", "committed notebooks are stripped; a student's saved work is not"),
+    Rule("exclude", "tests/test_chapters_under_load.py",
+         "the course's one CI run of the chapters (under load); the edition's pytest runs them with nbmake"),
     Rule("exclude", "tests/**", "tests that read solutions/ (exercise sync, solutions grade, grader)",
          mentions=READS_SOLUTIONS),
     Rule("include", "tests/test_grading_checks.py", "the check machinery, on toy checks"),

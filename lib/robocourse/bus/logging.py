@@ -10,6 +10,11 @@ colour by severity (DEBUG green, INFO plain, WARN yellow, ERROR and FATAL red) w
 ``RCUTILS_COLORIZED_OUTPUT=1`` or, unset, when the stream is a terminal. One difference, for
 notebooks: inside a Jupyter kernel the default stream is stdout and colour is on, because
 Jupyter paints everything on stderr pink, so an INFO line would look like an error there.
+
+``set_console_level(WARN)`` prints only WARN and above from every node, as ``--ros-args
+--log-level WARN`` does, with one difference: the quieter lines are still kept on the context
+(``context.log_records``), so a notebook can hide a flood of INFO without losing it
+(``robocourse.notebook.log_level`` is the notebook-facing spelling).
 """
 
 from __future__ import annotations
@@ -45,6 +50,32 @@ class LogRecord:
 COLORS = {LoggingSeverity.DEBUG: "\033[32m", LoggingSeverity.INFO: "", LoggingSeverity.WARN: "\033[33m",
           LoggingSeverity.ERROR: "\033[31m", LoggingSeverity.FATAL: "\033[31m"}
 RESET = "\033[0m"
+
+#: the lowest severity printed on the console (records below it are kept on the context only)
+_console_level = LoggingSeverity.UNSET
+
+
+def set_console_level(level) -> LoggingSeverity:
+    """Print only records at ``level`` or above (``"WARN"``, ``LoggingSeverity.WARN``, 30); return the old level."""
+    global _console_level
+    if isinstance(level, str):
+        try:
+            new = LoggingSeverity[level.strip().upper().replace("WARNING", "WARN")]
+        except KeyError:
+            raise ValueError(f"log level {level!r}: use one of {', '.join(s.name for s in LoggingSeverity)}, "
+                             "e.g. set_console_level('WARN')") from None
+    else:
+        try:
+            new = LoggingSeverity(level)
+        except ValueError:
+            raise ValueError(f"log level {level!r}: use one of {', '.join(f'{s.name} ({s.value})' for s in LoggingSeverity)}"
+                             ) from None
+    old, _console_level = _console_level, new
+    return old
+
+
+def get_console_level() -> LoggingSeverity:
+    return _console_level
 
 
 def _in_jupyter_kernel() -> bool:
@@ -112,6 +143,8 @@ class RcutilsLogger:
             ctx.log_records.append(rec)
             if not ctx.log_to_stderr:
                 return True
+        if severity < _console_level:
+            return True
         stream = console_stream()
         print(console_line(rec, stream), file=stream)
         return True

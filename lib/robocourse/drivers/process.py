@@ -4,8 +4,10 @@ Counterpart: the robot's controller is another computer; here it is another proc
 same machine, so a driver sees real socket timing (the kernel's loopback, the scheduler) and a
 box crash looks like a robot that went silent.
 
-- The box binds its ports itself (port 0 = a free one chosen by the kernel, no race) and prints
-  one line ``READY <name>=<port> ...`` on stdout; :meth:`BoxProcess.start` waits for it.
+- The box binds its ports itself (port 0 = a free one chosen by the kernel; the UR box: UR's
+  fixed ports on a free loopback address, :mod:`robocourse.drivers.loopback`; no race either
+  way) and prints one line ``READY [host=<address>] <name>=<port> ...`` on stdout;
+  :meth:`BoxProcess.start` waits for it.
 - No leftovers: the child asks the kernel for SIGKILL when its parent dies
   (``prctl(PR_SET_PDEATHSIG)``), runs in its own session (a Ctrl-C in the notebook does not
   reach it; :meth:`stop` does), and also exits when it sees it was re-parented.
@@ -40,8 +42,9 @@ def _die_with_parent() -> None:  # runs in the child between fork and exec
 class BoxProcess:
     """A box process started from ``python -m robocourse.drivers.box KIND ARGS``.
 
-    ``ports``: {"udp": 41234} (Franka style) or {"rtde": ..., "script": ...} (UR style) once
-    started. Use as a context manager or call :meth:`stop`.
+    ``ports``: {"udp": 41234} (Franka style) or {"rtde": 30004, "dashboard": 29999, ...} (UR
+    style) once started; ``host``: the address it listens on (UR style: its own 127.0.0.x; the
+    others 127.0.0.1). Use as a context manager or call :meth:`stop`.
     """
 
     def __init__(self, kind: str, args: list[str], startup_timeout: float = 60.0):
@@ -52,6 +55,7 @@ class BoxProcess:
         self.startup_timeout = float(startup_timeout)
         self.proc: subprocess.Popen | None = None
         self.ports: dict[str, int] = {}
+        self.host = "127.0.0.1"
 
     @property
     def pid(self) -> int | None:
@@ -63,6 +67,7 @@ class BoxProcess:
         env = dict(os.environ)
         lib = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
         env["PYTHONPATH"] = lib + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+        env.setdefault("MUJOCO_GL", "disable")     # a box never renders: skip loading GLFW (~0.2 s of start-up)
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "robocourse.drivers.box", self.kind, *self.args],
             stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -86,7 +91,9 @@ class BoxProcess:
             self.proc = None
             why = err.splitlines()[-1] if err else f"no message, timed out after {self.startup_timeout:.0f} s"
             raise BoxStartError(f"the {self.kind} box did not start (exit code {code}): {why}")
-        self.ports = {k: int(v) for k, v in (kv.split("=") for kv in line.decode().split()[1:])}
+        fields = dict(kv.split("=", 1) for kv in line.decode().split()[1:])
+        self.host = fields.pop("host", "127.0.0.1")
+        self.ports = {k: int(v) for k, v in fields.items()}
         return self
 
     def alive(self) -> bool:
@@ -134,4 +141,4 @@ class BoxProcess:
             pass
 
     def __repr__(self) -> str:
-        return f"BoxProcess({self.kind!r}, pid={self.pid}, ports={self.ports})"
+        return f"BoxProcess({self.kind!r}, pid={self.pid}, host={self.host!r}, ports={self.ports})"

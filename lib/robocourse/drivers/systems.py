@@ -1,23 +1,19 @@
-"""``robocourse/FrankaStyleSystem`` and ``robocourse/URStyleSystem``: the boxes under ros2_control.
+"""``robocourse/FrankaStyleSystem`` (and the base both box drivers share): the boxes under ros2_control.
 
-Counterparts: franka_hardware's ``FrankaHardwareInterface`` (read() = libfranka's
+Counterpart: franka_hardware's ``FrankaHardwareInterface`` (read() = libfranka's
 ``readOnce()``: wait for the robot's next state; write() = ``writeOnce()``: answer it; the
-robot clocks the loop, and a reflex makes read() fail) and ur_robot_driver's
-``URPositionHardwareInterface`` (read() takes the newest RTDE package; write() streams the
-position command as a servoj target; the robot runs on its own). Both serve the six arm joints
-with ``position`` / ``velocity`` / ``effort`` state interfaces; Franka-style commands
-``position`` or ``effort`` (torque mode, gravity added by the box), UR-style ``position``.
+robot clocks the loop, and a reflex makes read() fail). It serves the six arm joints with
+``position`` / ``velocity`` / ``effort`` state interfaces and commands ``position`` or
+``effort`` (torque mode, gravity added by the box). ``robocourse/URStyleSystem`` (on ur_rtde)
+is in :mod:`robocourse.drivers.ur_system`.
 
 Hardware ``<param>``s (strings, all optional):
 
-- ``host`` (127.0.0.1); ``port`` (Franka UDP) / ``rtde_port`` + ``script_port`` (UR): the box
-  to connect to. Missing or 0: the component starts its own box process in on_configure and
-  stops it in on_cleanup/on_shutdown (``self.box``).
-- Franka: ``max_missed`` (20, for a box it starts), ``read_timeout`` s (0.1: read() returns
+- ``host`` (127.0.0.1); ``port`` (Franka UDP): the box to connect to. Missing or 0: the
+  component starts its own box process in on_configure and stops it in on_cleanup/on_shutdown
+  (``self.box``).
+- ``max_missed`` (20, for a box it starts), ``read_timeout`` s (0.1: read() returns
   ERROR when no new state arrives for this long: the box is dead or unreachable).
-- UR: ``servoj_time`` (0.002), ``servoj_lookahead_time`` (0.03), ``servoj_gain`` (2000)
-  (ur_robot_driver's defaults), ``keepalive`` s (0.1, for a box it starts), ``read_timeout``
-  s (0.1).
 
 Errors: read() returns ERROR (and ``self.last_error`` says why, logged once outside the
 loop's hot path) when the box stops sending, its process dies, or (Franka) it reports a reflex.
@@ -29,7 +25,6 @@ cleared only by :meth:`FrankaStyleSystem.automatic_error_recovery` (franka_hardw
 from __future__ import annotations
 
 import math
-import time as _time
 
 import numpy as np
 
@@ -280,95 +275,6 @@ class FrankaStyleSystem(_BoxSystem):
         try:
             self.robot.write_command(self._commands(), fp.MODE_POSITION if self.active_mode == "position"
                                      else fp.MODE_TORQUE)
-        except ConnectionError as exc:
-            return self.fail(str(exc))
-        return return_type.OK
-
-
-class URStyleSystem(_BoxSystem):
-    """robocourse/URStyleSystem (see the module docstring)."""
-
-    KIND = "ur"
-    COMMAND_MODES = ("position",)
-    SUPPORTED_COMMAND_INTERFACES = COMMAND_MODES
-
-    def __init__(self, box: BoxProcess | None = None):
-        super().__init__(box)
-        self.rtde = None
-        self.control = None
-
-    def _read_params(self) -> None:
-        from . import ur_protocol as up
-
-        p = self.info.hardware_parameters
-        self.host = p.get("host", "127.0.0.1")
-        self.rtde_port = int(self._param("rtde_port", 0, 0, 65535))
-        self.script_port = int(self._param("script_port", 0, 0, 65535))
-        self.servoj_time = self._param("servoj_time", 0.002, *up.SERVOJ_T)
-        self.lookahead = self._param("servoj_lookahead_time", 0.03, *up.LOOKAHEAD)
-        self.gain = self._param("servoj_gain", 2000.0, *up.GAIN)
-        self.keepalive = self._param("keepalive", up.KEEPALIVE_S, 0.004, 10.0)
-
-    def on_configure(self, previous_state):
-        from .ur_client import RTDEControlInterface, RTDEError, RTDEReceiveInterface
-
-        self._slots()
-        rtde_port, script_port = self.rtde_port, self.script_port
-        if rtde_port == 0 or script_port == 0:
-            if self.box is None or not self.box.alive():
-                if not self._start_box(["--keepalive", str(self.keepalive)]):
-                    return CallbackReturn.FAILURE
-            rtde_port, script_port = self.box.ports["rtde"], self.box.ports["script"]
-        try:
-            if self.rtde is None:
-                self.rtde = RTDEReceiveInterface(self.host, rtde_port, 500.0,
-                                                 ("actual_q", "actual_qd", "actual_joint_torques", "runtime_state"))
-            if self.control is None:
-                self.control = RTDEControlInterface(self.host, script_port)
-        except RTDEError as exc:
-            self.get_logger().error(str(exc))
-            self._disconnect()
-            return CallbackReturn.FAILURE
-        if not self.rtde.receive(self.read_timeout * 10):
-            self.get_logger().error(f"no RTDE package from the UR-style box at {self.host}:{rtde_port}")
-            return CallbackReturn.FAILURE
-        v = self.rtde.values
-        self._copy_states(v["actual_q"], v["actual_qd"], v["actual_joint_torques"])
-        return CallbackReturn.SUCCESS
-
-    def _disconnect(self) -> None:
-        for c in (self.rtde, self.control):
-            if c is not None:
-                c.close()
-        self.rtde = self.control = None
-
-    def _stop_motion(self) -> None:
-        if self.control is not None:
-            try:
-                self.control.servoStop()
-            except ConnectionError:
-                pass
-
-    # --- hot path ----------------------------------------------------------------------------------
-    def read(self, time, period):
-        r = self.rtde
-        if r is None:
-            return self.fail("not connected to the box")
-        r.receive(0.0)
-        if r.closed_by_peer:
-            return self.fail("the box closed the RTDE connection (process gone?)")
-        if _time.monotonic() - r.last_receive > self.read_timeout:
-            return self.fail(f"no RTDE package for {self.read_timeout * 1e3:.0f} ms")
-        v = r.values
-        self._copy_states(v["actual_q"], v["actual_qd"], v["actual_joint_torques"])
-        return return_type.OK
-
-    def write(self, time, period):
-        if self.active_mode is None:
-            return return_type.OK
-        try:
-            self.control.servoJ(self._commands(), time=self.servoj_time, lookahead_time=self.lookahead,
-                                gain=self.gain)
         except ConnectionError as exc:
             return self.fail(str(exc))
         return return_type.OK

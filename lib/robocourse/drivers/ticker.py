@@ -36,11 +36,13 @@ class TickingBox:
         while self.running:
             while True:
                 left = next_t - time.monotonic_ns()
-                if left <= 0:
-                    break
-                readable, _, _ = select.select(self.sockets(), [], [], left * 1e-9)
+                # when late (the box was not scheduled), still take in what arrived meanwhile before the
+                # tick: a client's inputs sent on time must not look late to the tick (a watchdog would fire)
+                readable, _, _ = select.select(self.sockets(), [], [], max(0, left) * 1e-9)
                 for s in readable:
                     self.on_readable(s)
+                if left <= 0:
+                    break
             self.tick()
             next_t += period
             behind = time.monotonic_ns() - next_t

@@ -1,119 +1,124 @@
-"""The UR-style controller box: RTDE-like state stream at 500 Hz + a servoj script channel.
+"""The UR-style controller box: RTDE (30004), the dashboard (29999) and the script ports (30001-30003).
 
-Counterpart: a UR controller (CB3/e-Series) as ur_rtde and ur_robot_driver see it: the
-robot runs its own 500 Hz loop whatever the client does; the client streams servo targets and
-the robot follows the latest one; a lapsed keepalive stops the program. Protocol:
-:mod:`robocourse.drivers.ur_protocol`. Runs in its own process
+Counterpart: a UR e-Series controller as ur_rtde 1.6.5 and ur_robot_driver reach it over the
+network, so ``rtde_receive``, ``rtde_control``, ``rtde_io`` and ``dashboard_client`` from PyPI
+drive it unchanged. It binds UR's fixed port numbers on a loopback address of its own
+(127.0.0.x, :mod:`robocourse.drivers.loopback`), runs the controller's 500 Hz cycle
+(:class:`robocourse.drivers.ur_controller.URController` around the UR5e arm in MuJoCo) and
+serves every connection between ticks. Runs in its own process
 (:func:`robocourse.drivers.start_ur_box`).
 
-A client that dies does not keep the robot: both channels are TCP, so when the client's
-process dies (even by SIGKILL) the kernel closes its connections, the box reads EOF and frees
-the channel at once (``disconnects``); a lapsed keepalive has already stopped the servo
-program. A client that hangs without dying (stopped, or its host gone without a FIN) keeps
-its connections open: on the script channel the box then hands the slot to a new connection
-once the holder has sent nothing for longer than the keepalive (``released_silent_clients``),
-as a real UR controller lets a new program replace one that stopped. The RTDE channel has no
-such rule, because a streaming RTDE client sends nothing after START, so silence means
-nothing there; the real controller avoids the question by serving several RTDE clients at
-once, where ours serves one.
+- **RTDE** (:mod:`robocourse.drivers.rtde`): any number of clients, each with its own protocol
+  state, one output recipe streamed at 500 Hz / an integer divisor of it (the frequency asked
+  for, rounded to the nearest divisor; 0 or above 500 Hz refused: the reply's recipe id is 0
+  and START then fails), and input recipes numbered 1, 2, 3... per connection. An input
+  variable belongs to the connection whose recipe named it first: another connection's recipe
+  naming it gets ``IN_USE`` (ur_rtde then raises "One of the RTDE input registers are already
+  in use!"), until the owner disconnects. Text messages (a refused program, a program stopped,
+  the watchdog) go to every streaming client as 'M' packages, never during a handshake.
+  Malformed packages (a size below the header, an unknown type, a wrong version, a data package
+  for an unknown recipe or of the wrong length) are counted (``rx_bad_*``) and dropped; the
+  connection and every other client carry on.
+- **Dashboard** (:mod:`robocourse.drivers.ur_dashboard`).
+- **Script ports** 30001, 30002, 30003: a complete program is handed to the controller, which
+  runs ur_rtde's control script and refuses anything else (:mod:`robocourse.drivers.ur_script`).
+  The primary/secondary state streams of 30001/30002 are not sent.
+
+A client that dies does not keep the robot: TCP closes its connections, the box releases its
+inputs; a control script keeps running with its last command (as on a real UR), which the RTDE
+watchdog stops if the client had set it.
 """
 
 from __future__ import annotations
 
 import json
 import socket
-import time
+import struct
 
-import numpy as np
-
-from . import ur_protocol as up
-from .arm import BoxArm
+from . import rtde
+from . import ur_dashboard as dash
 from .ticker import TickingBox
+from .ur_controller import CONTROLLER_VERSION, URController
+from .ur_script import program_complete
 
-_MAX_OUT = 1 << 16
+RTDE_PORT, DASHBOARD_PORT, PRIMARY_PORT, SECONDARY_PORT, REALTIME_PORT = 30004, 29999, 30001, 30002, 30003
+PORTS = {"rtde": RTDE_PORT, "dashboard": DASHBOARD_PORT, "primary": PRIMARY_PORT, "secondary": SECONDARY_PORT,
+         "realtime": REALTIME_PORT}
+CONTROL_HZ = 500
+MAX_OUT = 1 << 18          # bytes queued for a client that does not read before packages are dropped
+MAX_SCRIPT = 1 << 20       # a program larger than this is refused
+MAX_LINE = 4096            # a dashboard line longer than this is refused
 
 
 class _Conn:
-    def __init__(self, sock):
+    __slots__ = ("sock", "kind", "id", "inbuf", "outbuf", "out_names", "out_getters", "out_struct", "divisor",
+                 "streaming", "in_recipes", "started")
+
+    def __init__(self, sock, kind: str, cid: int):
         self.sock = sock
-        sock.setblocking(False)
+        self.kind = kind
+        self.id = cid
         self.inbuf = bytearray()
         self.outbuf = bytearray()
-        self.heard_ns = time.monotonic_ns()   # when it last sent anything
+        self.out_names: list[str] | None = None
+        self.out_getters = None
+        self.out_struct = None
+        self.divisor = 1
+        self.streaming = False
+        self.started = False
+        self.in_recipes: list[tuple[list[str], struct.Struct]] = []
 
 
 class URBox(TickingBox):
-    period_ns = 1_000_000_000 // up.CONTROL_HZ
+    """One simulated UR e-Series controller (see the module docstring)."""
 
-    def __init__(self, port: int = 0, script_port: int = 0, host: str = "127.0.0.1",
-                 keepalive: float = up.KEEPALIVE_S, initial_positions=None):
+    period_ns = 1_000_000_000 // CONTROL_HZ
+
+    def __init__(self, listeners: dict[str, socket.socket], host: str, *, initial_positions=None,
+                 physics: bool = True, powered: bool = True, unlock_delay: float | None = None):
         super().__init__()
-        self.dt = 1.0 / up.CONTROL_HZ
-        self.arm = BoxArm(timestep=0.001, initial_positions=initial_positions)
-        self.keepalive_ns = int(keepalive * 1e9)
-        self.rtde_listener = self._listen(host, port)
-        self.script_listener = self._listen(host, script_port)
-        self.port = self.rtde_listener.getsockname()[1]
-        self.script_port = self.script_listener.getsockname()[1]
-        self.rtde: _Conn | None = None
-        self.script: _Conn | None = None
-        self.recipe: list[str] | None = None
-        self.recipe_struct = None
-        self.divisor = 1
-        self.streaming = False
-        self.tick_count = 0
-        q = self.arm.q.copy()
-        self.target = q.copy()           # latest servoj target
-        self.interp_start = q.copy()
-        self.interp = q.copy()
-        self.ref = q.copy()              # what the joint servos get (target_q)
-        self.ref_qd = np.zeros(6)
-        self.t_cmd_ns = 0
-        self.servo_t = 0.002
-        self.lookahead = 0.1
-        self.playing = False
-        self.last_line_ns = 0
+        from .arm import BoxArm, NullArm
 
-    @staticmethod
-    def _listen(host, port):
-        s = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        s.bind((host, port))            # OSError "Address already in use" reaches main()
-        s.listen(2)
-        s.setblocking(False)
-        return s
+        self.host = host
+        self.listeners = listeners
+        self._kind_of = {s: k for k, s in listeners.items()}
+        if physics:
+            from robocourse.sim.robots.kinematics import Kinematics
+
+            arm, kin = BoxArm(timestep=0.001, initial_positions=initial_positions), Kinematics("ur5e", "tool0")
+        else:
+            arm, kin = NullArm(initial_positions=initial_positions), None
+        kw = {} if unlock_delay is None else {"unlock_delay": unlock_delay}
+        self.ctrl = URController(arm, 1.0 / CONTROL_HZ, powered=powered, kinematics=kin, **kw)
+        self.getters = self.ctrl.outputs()
+        self.conns: dict[socket.socket, _Conn] = {}
+        self.owner: dict[str, int] = {}          # input variable -> connection id
+        self._next_id = 1
+        self.tick_count = 0
 
     def sockets(self) -> list:
-        socks = [self.rtde_listener, self.script_listener]
-        socks += [c.sock for c in (self.rtde, self.script) if c is not None]
-        return socks
+        return [*self.listeners.values(), *self.conns]
 
     # --- connections -----------------------------------------------------------------------------
     def on_readable(self, sock) -> None:
-        if sock is self.rtde_listener or sock is self.script_listener:
-            conn, _ = sock.accept()
-            is_rtde = sock is self.rtde_listener
-            if (not is_rtde and self.script is not None
-                    and time.monotonic_ns() - self.script.heard_ns > self.keepalive_ns):
-                self.counters["released_silent_clients"] += 1
-                self._close(self.script)
-            if (self.rtde if is_rtde else self.script) is not None:
-                self.counters["rejected_connects"] += 1
-                msg = (up.package(up.TEXT_MESSAGE, b"busy: another RTDE client is connected") if is_rtde
-                       else b"error: busy: another script client is connected and sent a line within the "
-                       b"keepalive; stop it (or let it go silent for longer than the keepalive) first\n")
-                try:
-                    conn.send(msg)
-                finally:
-                    conn.close()
+        kind = self._kind_of.get(sock)
+        if kind is not None:
+            try:
+                conn, _ = sock.accept()
+            except (BlockingIOError, InterruptedError):
                 return
-            if is_rtde:
-                self.rtde = _Conn(conn)
-                self.streaming = False
-            else:
-                self.script = _Conn(conn)
-            self.counters["connects"] += 1
+            conn.setblocking(False)
+            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            c = _Conn(conn, kind, self._next_id)
+            self._next_id += 1
+            self.conns[conn] = c
+            self.counters[f"connects_{kind}"] += 1
+            if kind == "dashboard":
+                self._send(c, (dash.WELCOME + "\n").encode())
             return
-        conn = self.rtde if self.rtde is not None and sock is self.rtde.sock else self.script
+        c = self.conns.get(sock)
+        if c is None:
+            return
         try:
             data = sock.recv(65536)
         except (BlockingIOError, InterruptedError):
@@ -121,178 +126,238 @@ class URBox(TickingBox):
         except OSError:
             data = b""
         if not data:
-            self._close(conn)
+            self._close(c)
             return
-        conn.heard_ns = time.monotonic_ns()
-        conn.inbuf += data
-        if conn is self.rtde:
-            self._parse_rtde(conn)
+        c.inbuf += data
+        if c.kind == "rtde":
+            self._parse_rtde(c)
+        elif c.kind == "dashboard":
+            self._parse_dashboard(c)
         else:
-            self._parse_script(conn)
+            self._parse_script(c)
 
-    def _close(self, conn: _Conn) -> None:
-        conn.sock.close()
-        if conn is self.rtde:
-            self.rtde, self.streaming = None, False
-        else:
-            self.script = None
-        self.counters["disconnects"] += 1
-
-    def _send(self, conn: _Conn, data: bytes) -> None:
-        if len(conn.outbuf) > _MAX_OUT:
-            self.counters["tx_dropped"] += 1     # the client does not read: drop, never block the loop
+    def _close(self, c: _Conn) -> None:
+        if self.conns.pop(c.sock, None) is None:
             return
-        conn.outbuf += data
+        c.sock.close()
+        for name in [n for n, o in self.owner.items() if o == c.id]:
+            del self.owner[name]
+        self.counters[f"disconnects_{c.kind}"] += 1
+
+    def _send(self, c: _Conn, data: bytes) -> None:
+        if len(c.outbuf) > MAX_OUT:
+            self.counters["tx_dropped"] += 1      # the client does not read: drop, never block the cycle
+            return
+        c.outbuf += data
         try:
-            sent = conn.sock.send(conn.outbuf)
-            del conn.outbuf[:sent]
+            sent = c.sock.send(c.outbuf)
+            del c.outbuf[:sent]
         except (BlockingIOError, InterruptedError):
             pass
         except OSError:
-            self._close(conn)
+            self._close(c)
 
     # --- RTDE --------------------------------------------------------------------------------------
-    def _parse_rtde(self, conn: _Conn) -> None:
-        buf, c = conn.inbuf, self.counters
-        while len(buf) >= up.HEADER.size:
-            size, ptype = up.HEADER.unpack_from(buf)
-            if size < up.HEADER.size:           # cannot find the next package boundary: drop what we have
-                c["rx_bad_size"] += 1
+    def _parse_rtde(self, c: _Conn) -> None:
+        buf = c.inbuf
+        while len(buf) >= rtde.HEADER.size:
+            size, ptype = rtde.HEADER.unpack_from(buf)
+            if size < rtde.HEADER.size:          # no way to find the next package boundary: drop what we have
+                self.counters["rx_bad_size"] += 1
                 buf.clear()
                 return
             if len(buf) < size:
                 return
-            payload = bytes(buf[up.HEADER.size:size])
+            payload = bytes(buf[rtde.HEADER.size:size])
             del buf[:size]
-            self._rtde_package(conn, ptype, payload)
-            if self.rtde is not conn:
+            self._rtde_package(c, ptype, payload)
+            if c.sock not in self.conns:
                 return
 
-    def _rtde_package(self, conn: _Conn, ptype: int, payload: bytes) -> None:
-        c = self.counters
-        if ptype == up.REQUEST_PROTOCOL_VERSION:
+    def _reply(self, c: _Conn, ptype: int, payload: bytes) -> None:
+        self._send(c, rtde.package(ptype, payload))
+
+    def _rtde_package(self, c: _Conn, ptype: int, payload: bytes) -> None:
+        cnt = self.counters
+        if ptype == rtde.DATA_PACKAGE:
+            if not payload:
+                cnt["rx_bad_size"] += 1
+                return
+            rid = payload[0]
+            if not 1 <= rid <= len(c.in_recipes):
+                cnt["rx_bad_recipe"] += 1
+                return
+            names, st = c.in_recipes[rid - 1]
+            if len(payload) != st.size:
+                cnt["rx_bad_size"] += 1
+                return
+            values = st.unpack(payload)[1:]
+            self.ctrl.apply_inputs(names, self._group(names, values))
+            cnt["rx_data"] += 1
+        elif ptype == rtde.REQUEST_PROTOCOL_VERSION:
             if len(payload) != 2:
-                c["rx_bad_size"] += 1
+                cnt["rx_bad_size"] += 1
                 return
-            ok = int.from_bytes(payload, "big") == up.RTDE_PROTOCOL_VERSION
+            ok = int.from_bytes(payload, "big") == rtde.PROTOCOL_VERSION
             if not ok:
-                c["rx_bad_version"] += 1
-            self._send(conn, up.package(ptype, bytes([ok])))
-        elif ptype == up.GET_URCONTROL_VERSION:
-            self._send(conn, up.package(ptype, b"".join(v.to_bytes(4, "big") for v in up.URCONTROL_VERSION)))
-        elif ptype == up.SETUP_OUTPUTS:
-            if len(payload) < 9:
-                c["rx_bad_size"] += 1
-                return
-            freq = float(np.frombuffer(payload[:8], dtype=">f8")[0])
-            names = [n.strip() for n in payload[8:].decode(errors="replace").split(",")]
-            types = [up.FIELDS[n][0] if n in up.FIELDS else "NOT_FOUND" for n in names]
-            if "NOT_FOUND" in types or not 0 < freq <= up.CONTROL_HZ or self.streaming:
-                c["rejected_recipes"] += 1
-                reason = ("stop streaming (PAUSE) before a new recipe" if self.streaming else
-                          f"frequency {freq} Hz must be in (0, {up.CONTROL_HZ}]" if not 0 < freq <= up.CONTROL_HZ
-                          else f"unknown fields {[n for n, t in zip(names, types) if t == 'NOT_FOUND']}")
-                self._send(conn, up.package(up.TEXT_MESSAGE, reason.encode()))
-                self._send(conn, up.package(ptype, b"\x00" + ",".join(types).encode()))
-                return
-            self.recipe = names
-            self.recipe_struct = up.recipe_struct(names)
-            self.divisor = max(1, round(up.CONTROL_HZ / freq))
-            self._send(conn, up.package(ptype, b"\x01" + ",".join(types).encode()))
-        elif ptype == up.START:
-            ok = self.recipe is not None
-            self.streaming = ok
-            self._send(conn, up.package(ptype, bytes([ok])))
-        elif ptype == up.PAUSE:
-            self.streaming = False
-            self._send(conn, up.package(ptype, b"\x01"))
+                cnt["rx_bad_version"] += 1
+            self._reply(c, ptype, bytes([ok]))
+        elif ptype == rtde.GET_URCONTROL_VERSION:
+            self._reply(c, ptype, struct.pack(">4I", *CONTROLLER_VERSION))
+        elif ptype == rtde.SETUP_OUTPUTS:
+            self._setup_outputs(c, payload)
+        elif ptype == rtde.SETUP_INPUTS:
+            self._setup_inputs(c, payload)
+        elif ptype == rtde.START:
+            ok = c.out_names is not None or bool(c.in_recipes)
+            c.started = ok
+            c.streaming = ok and c.out_names is not None
+            if not ok:
+                cnt["rejected_starts"] += 1
+            self._reply(c, ptype, bytes([ok]))
+        elif ptype == rtde.PAUSE:
+            c.streaming = c.started = False
+            self._reply(c, ptype, b"\x01")
         else:
-            c["rx_bad_type"] += 1
+            cnt["rx_bad_type"] += 1
 
-    def _data_package(self) -> bytes:
-        arm = self.arm
-        values = {"timestamp": ((time.monotonic_ns() - self.t0_ns) * 1e-9,), "target_q": self.ref,
-                  "actual_q": arm.q, "actual_qd": arm.dq, "target_qd": self.ref_qd,
-                  "actual_joint_torques": arm.tau, "robot_mode": (up.ROBOT_MODE_RUNNING,),
-                  "runtime_state": (up.RUNTIME_PLAYING if self.playing else up.RUNTIME_STOPPED,),
-                  "speed_scaling": (1.0,)}
-        flat = [v for n in self.recipe for v in values[n]]
-        return up.package(up.DATA_PACKAGE, self.recipe_struct.pack(1, *flat))
+    @staticmethod
+    def _group(names, flat):
+        """Flat struct values -> one value (or tuple) per name (vector inputs: external_force_torque)."""
+        if len(flat) == len(names):
+            return flat
+        out, i = [], 0
+        for n in names:
+            k = rtde.TYPES[rtde.INPUTS[n]][1]
+            out.append(flat[i] if k == 1 else flat[i:i + k])
+            i += k
+        return out
 
-    # --- script ------------------------------------------------------------------------------------
-    def _parse_script(self, conn: _Conn) -> None:
-        while b"\n" in conn.inbuf:
-            i = conn.inbuf.index(b"\n")
-            line = bytes(conn.inbuf[:i]).decode(errors="replace")
-            del conn.inbuf[:i + 1]
-            self._script_line(conn, line)
-        if len(conn.inbuf) > 4096:      # no newline in 4 kB: not our protocol
+    def _setup_outputs(self, c: _Conn, payload: bytes) -> None:
+        if len(payload) < 8:
+            self.counters["rx_bad_size"] += 1
+            return
+        freq = struct.unpack(">d", payload[:8])[0]
+        names = rtde.split_names(payload[8:])
+        types = [rtde.OUTPUTS.get(n, rtde.NOT_FOUND) for n in names]
+        ok = bool(names) and rtde.NOT_FOUND not in types and 0 < freq <= CONTROL_HZ and not c.streaming
+        if ok:
+            c.out_names = names
+            c.out_getters = [self.getters[n] for n in names]
+            c.out_struct = rtde.recipe_struct(types)
+            c.divisor = max(1, round(CONTROL_HZ / freq))
+        else:
+            self.counters["rejected_recipes"] += 1
+        self._reply(c, rtde.SETUP_OUTPUTS, bytes([1 if ok else 0]) + ",".join(types).encode())
+
+    def _setup_inputs(self, c: _Conn, payload: bytes) -> None:
+        names = rtde.split_names(payload)
+        types = []
+        for n in names:
+            if n not in rtde.INPUTS:
+                types.append(rtde.NOT_FOUND)
+            elif self.owner.get(n, c.id) != c.id:
+                types.append(rtde.IN_USE)
+            else:
+                types.append(rtde.INPUTS[n])
+        ok = bool(names) and rtde.NOT_FOUND not in types and rtde.IN_USE not in types and len(c.in_recipes) < 255
+        rid = 0
+        if ok:
+            c.in_recipes.append((names, rtde.recipe_struct(types)))
+            rid = len(c.in_recipes)
+            for n in names:
+                self.owner[n] = c.id
+        else:
+            self.counters["rejected_recipes"] += 1
+        self._reply(c, rtde.SETUP_INPUTS, bytes([rid]) + ",".join(types).encode())
+
+    def _data_package(self, c: _Conn) -> bytes:
+        flat = [v for g in c.out_getters for v in g()]
+        return rtde.package(rtde.DATA_PACKAGE, c.out_struct.pack(1, *flat))
+
+    # --- dashboard ---------------------------------------------------------------------------------
+    def _parse_dashboard(self, c: _Conn) -> None:
+        while b"\n" in c.inbuf:
+            i = c.inbuf.index(b"\n")
+            line = bytes(c.inbuf[:i]).decode(errors="replace").rstrip("\r")
+            del c.inbuf[:i + 1]
+            reply, action = dash.answer(self.ctrl, line)
+            self.counters["dashboard_commands"] += 1
+            if action == "stats":
+                reply = json.dumps(self.stats())
+            self._send(c, (reply + "\n").encode())
+            if action == "quit":
+                self._close(c)
+                return
+            if action == "shutdown":
+                self.running = False
+                return
+        if len(c.inbuf) > MAX_LINE:
             self.counters["rx_bad_line"] += 1
-            conn.inbuf.clear()
+            c.inbuf.clear()
+            self._send(c, b"could not understand: a line longer than 4096 bytes\n")
 
-    def _script_line(self, conn: _Conn, line: str) -> None:
-        c = self.counters
-        m = up.SERVOJ_RE.fullmatch(line)
-        if m:
-            try:
-                nums = [float(x) for x in m.groups()]
-            except ValueError:
-                c["rx_bad_line"] += 1
-                return
-            q, t, lookahead, gain = np.array(nums[:6]), nums[8], nums[9], nums[10]
-            if (not np.all(np.isfinite(q)) or not up.SERVOJ_T[0] <= t <= up.SERVOJ_T[1]
-                    or not up.LOOKAHEAD[0] <= lookahead <= up.LOOKAHEAD[1] or not up.GAIN[0] <= gain <= up.GAIN[1]):
-                c["rx_out_of_range"] += 1
-                return
-            self.interp_start[:] = self.interp
-            self.target[:] = np.clip(q, self.arm.limits_low, self.arm.limits_high)
-            self.servo_t, self.lookahead = t, lookahead
-            self.t_cmd_ns = time.monotonic_ns()
-            self.last_line_ns = self.t_cmd_ns
-            if not self.playing:
-                c["programs_started"] += 1
-            self.playing = True
-            c["servoj"] += 1
+    # --- script ports ------------------------------------------------------------------------------
+    def _parse_script(self, c: _Conn) -> None:
+        if len(c.inbuf) > MAX_SCRIPT:
+            self.counters["scripts_refused"] += 1
+            self.ctrl.message(f"script refused: more than {MAX_SCRIPT} bytes without a complete program")
+            c.inbuf.clear()
             return
-        if up.STOPJ_RE.fullmatch(line):
-            self._stop()
-            c["stopj"] += 1
-            return
-        if line.strip() == "stats()":
-            self._send(conn, json.dumps(self.stats()).encode() + b"\n")
-            return
-        c["rx_bad_line"] += 1
-
-    def _stop(self) -> None:
-        """Stop the servo program: the reference stops where it is, the arm settles there."""
-        self.playing = False
-        self.target[:] = self.ref
-        self.interp[:] = self.ref
-        self.interp_start[:] = self.ref
+        text = c.inbuf.decode(errors="replace")
+        if program_complete(text):
+            c.inbuf.clear()
+            self.ctrl.upload(text)
 
     # --- the 500 Hz tick ---------------------------------------------------------------------------
     def tick(self) -> None:
-        now = time.monotonic_ns()
-        if self.playing and now - self.last_line_ns > self.keepalive_ns:
-            self.counters["keepalive_lapsed"] += 1
-            self._stop()
-        if self.playing:
-            frac = min(1.0, (now - self.t_cmd_ns) * 1e-9 / self.servo_t)
-            self.interp[:] = self.interp_start + (self.target - self.interp_start) * frac
-            alpha = min(1.0, self.dt / self.lookahead)
-        else:
-            alpha = 1.0
-        step = np.clip((self.interp - self.ref) * alpha, -self.arm.velocity_limits * self.dt,
-                       self.arm.velocity_limits * self.dt)
-        self.ref += step
-        self.ref_qd[:] = step / self.dt
-        self.arm.cmd[:] = self.ref
-        self.arm.step(2)
+        ctrl = self.ctrl
+        ctrl.tick()
         self.tick_count += 1
-        if self.streaming and self.rtde is not None and self.tick_count % self.divisor == 0:
-            self._send(self.rtde, self._data_package())
-            self.counters["packages_sent"] += 1
+        msgs = ctrl.messages
+        if msgs:
+            packed = b"".join(rtde.text_message(t, "robocourse", lvl) for t, lvl in msgs)
+            msgs.clear()
+        else:
+            packed = b""
+        for c in list(self.conns.values()):
+            if c.streaming and c.kind == "rtde":
+                if packed:
+                    self._send(c, packed)
+                if self.tick_count % c.divisor == 0:
+                    self._send(c, self._data_package(c))
+                    self.counters["packages_sent"] += 1
 
     def stats(self) -> dict:
-        return {"ticks": self.tick_count, "playing": self.playing, "streaming": self.streaming,
-                "recipe": self.recipe, **self.counters}
+        rtde_conns = [c for c in self.conns.values() if c.kind == "rtde"]
+        return {"host": self.host, "ticks": self.tick_count, "box_overruns": self.counters["box_overruns"],
+                "rtde_clients": len(rtde_conns), "streaming": sum(c.streaming for c in rtde_conns),
+                "target_q": [float(x) for x in self.ctrl.motion.q], "actual_q": [float(x) for x in self.ctrl.arm.q],
+                **self.ctrl.stats(), **{k: v for k, v in self.counters.items() if k != "box_overruns"}}
+
+
+def open_listeners(host: str | None) -> tuple[str, dict[str, socket.socket]]:
+    """Bind UR's five ports on ``host``, or on a free 127.0.0.x when ``host`` is None."""
+    from .loopback import bind_all, bind_free_loopback
+
+    spec = [(p, socket.SOCK_STREAM) for p in PORTS.values()]
+    if host is None:
+        host, socks = bind_free_loopback(spec)
+    else:
+        socks = bind_all(host, spec)
+    return host, dict(zip(PORTS, socks))
+
+
+def read_stats(host: str, timeout: float = 2.0) -> dict:
+    """The box's counters, asked on the dashboard port (``robocourse stats``)."""
+    with socket.create_connection((host, DASHBOARD_PORT), timeout=timeout) as s:
+        f = s.makefile("rb")
+        f.readline()                                  # welcome
+        s.sendall(b"robocourse stats\n")
+        line = f.readline()
+    if not line:
+        raise ConnectionError(f"the UR-style box at {host} closed the dashboard connection")
+    return json.loads(line)
+
+
+__all__ = ["PORTS", "URBox", "open_listeners", "read_stats"]

@@ -4,9 +4,10 @@ No rttest counterpart: rttest measures one run. One run of a loop on a shared ma
 little (a single burst of someone else's work can swap a ranking), so a chapter that compares
 two settings runs each of them ``rounds`` times, alternating the order every round (A B C,
 C B A, A B C, ...: no setting always runs first or always follows the same neighbour), and
-reports each figure as the median over the rounds with its range. ``compare_sentence`` words a
-comparison from those numbers, including "no consistent difference here" when the rounds
-disagree, so the prose of a notebook cannot contradict its own output.
+reports each figure as the median over the rounds with its range. ``Repeated.claim`` words a
+comparison from those numbers with :func:`robocourse.notebook.claim` (a verdict only when the
+rounds' ranges do not overlap and there are enough of them, "this run cannot tell" otherwise),
+so the prose of a notebook cannot contradict its own output.
 """
 
 from __future__ import annotations
@@ -84,6 +85,19 @@ class Repeated:
         lo, hi = self.spread(name, metric)
         return f"{self.median(name, metric) * scale:.{digits}f} [{lo * scale:.{digits}f}-{hi * scale:.{digits}f}]"
 
+    def claim(self, a: str, b: str | None, metric, scale: float = 1e-3, unit: str = "us", digits: int = 1,
+              what: str | None = None, each: str = "", limit: float | None = None, limit_name: str = "the limit"):
+        """A :func:`robocourse.notebook.claim` from the rounds: ``a`` against ``b`` on ``metric``, or
+        ``a`` alone (``b=None``, with or without ``limit``). ``what`` defaults to the metric's name."""
+        from robocourse.notebook.claims import claim
+
+        label = what or (metric if isinstance(metric, str) else "value")
+        values = {a: self.values(a, metric)}
+        if b is not None:
+            values[b] = self.values(b, metric)
+        return claim(label, values, unit=unit, scale=scale, digits=digits, each=each, limit=limit,
+                     limit_name=limit_name)
+
     def table(self, metrics=("p50", "p99", "max"), scale: float = 1e-3, unit: str = "us", digits: int = 1) -> str:
         """A text table: one row per experiment, each cell 'median [min-max]' over the rounds."""
         width = max(len(n) for n in self.runs) + 2
@@ -100,7 +114,8 @@ def measure_rounds(experiments: dict, rounds: int = 3, between=None, progress: b
 
     Each experiment is a function of no argument returning a run (a LoopResult, a
     CyclictestResult, ...). ``between(name, run)`` is called after each run (cleanup).
-    ``progress=True`` shows a progress bar, advanced *between* runs, never inside a loop.
+    ``progress=True`` shows a progress line (:class:`robocourse.notebook.progress`), advanced
+    *between* runs, never inside a loop.
     """
     if isinstance(rounds, bool) or not isinstance(rounds, int) or rounds < 1:
         raise ValueError(f"rounds={rounds!r}: run every experiment at least once, e.g. rounds=3")
@@ -113,9 +128,9 @@ def measure_rounds(experiments: dict, rounds: int = 3, between=None, progress: b
     rep = Repeated({n: [] for n in names})
     bar = None
     if progress:
-        from tqdm.auto import tqdm
+        from robocourse.notebook.progress_line import progress as progress_line
 
-        bar = tqdm(total=rounds * len(names), desc="runs", leave=False)
+        bar = progress_line(rounds * len(names), "runs")
     try:
         for k in range(rounds):
             order = names if k % 2 == 0 else names[::-1]
@@ -131,37 +146,3 @@ def measure_rounds(experiments: dict, rounds: int = 3, between=None, progress: b
         if bar is not None:
             bar.close()
     return rep
-
-
-def _fmt(v: float, scale: float, unit: str, digits: int) -> str:
-    return f"{v * scale:.{digits}f} {unit}".rstrip()
-
-
-def compare_sentence(rep: Repeated, a: str, b: str, metric, scale: float = 1e-3, unit: str = "us",
-                     digits: int = 1, what: str | None = None) -> str:
-    """One sentence comparing ``a`` with ``b`` on ``metric``, worded by the numbers.
-
-    "lower in all 5 rounds", "higher in 4 of 5 rounds" or "no consistent difference (lower in
-    2 of 5 rounds)": the verdict needs a majority of at least 80 % of the rounds, otherwise it
-    says the rounds disagree.
-    """
-    label = what or (metric if isinstance(metric, str) else "value")
-    ma, mb = rep.median(a, metric), rep.median(b, metric)
-    (la, ha), (lb, hb) = rep.spread(a, metric), rep.spread(b, metric)
-    n = rep.rounds
-    lower, higher = rep.wins(a, b, metric), rep.wins(b, a, metric)
-    fig_a = f"{_fmt(ma, scale, unit, digits)} (range {_fmt(la, scale, unit, digits)} to {_fmt(ha, scale, unit, digits)})"
-    fig_b = f"{_fmt(mb, scale, unit, digits)} (range {_fmt(lb, scale, unit, digits)} to {_fmt(hb, scale, unit, digits)})"
-    need = max(1, int(np.ceil(0.8 * n)))
-
-    def rounds_text(k: int) -> str:
-        return f"all {n} rounds" if k == n else f"{k} of {n} rounds"
-
-    if lower >= need:
-        verdict = f"lower than {b}'s in {rounds_text(lower)}"
-    elif higher >= need:
-        verdict = f"higher than {b}'s in {rounds_text(higher)}"
-    else:
-        verdict = (f"not consistently different from {b}'s: lower in {lower}, higher in {higher} of {n} rounds, "
-                   "so this machine does not separate them")
-    return f"{a}: median {label} {fig_a}, {verdict} ({b}: {fig_b})."

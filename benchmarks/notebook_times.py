@@ -1,0 +1,81 @@
+"""Each notebook's headless time in test mode, median of 3, beside the 60 s budget.
+
+The 60 s per notebook is a goal measured here, not a test timeout (the nbmake timeout in
+``tests/conftest.py`` is a safety net well above it): a loaded machine makes every notebook
+slower, and a red suite because another job ran at the same time says nothing about the course.
+Each notebook runs as nbmake runs it (every cell, in its own folder, ``ROBOCOURSE_TEST=1``), its
+kernel over IPC (``robocourse.notebook.run``). Repeats are interleaved (every notebook once,
+then again), so a burst of someone else's work lands on one repeat of several notebooks rather
+than on every repeat of one. The machine is shared: read the spread, not only the median.
+``--load`` runs every repeat with chapter 1's disturbance (``CpuLoad(processes=2)``, two busy
+processes on the last allowed CPU), as the under-load test does.
+
+    .venv/bin/python benchmarks/notebook_times.py [--repeats 3] [--load] [chapters/01_realtime_basics.ipynb ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import statistics
+import sys
+from pathlib import Path
+
+from robocourse.notebook.run import execute
+from robocourse.rt.disturb import CpuLoad
+
+ROOT = Path(__file__).resolve().parents[1]
+BUDGET_S = 60.0
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("notebooks", nargs="*", type=Path,
+                    help="notebooks to time (default: chapters/*.ipynb and solutions/*.ipynb)")
+    ap.add_argument("--repeats", type=int, default=3, help="runs of each notebook (default 3)")
+    ap.add_argument("--load", action="store_true", help="run under chapter 1's CPU load (two busy processes)")
+    args = ap.parse_args(argv)
+    if args.repeats < 1:
+        ap.error(f"--repeats {args.repeats}: run each notebook at least once, e.g. --repeats 3")
+    paths = args.notebooks or sorted(ROOT.glob("chapters/*.ipynb")) + sorted(ROOT.glob("solutions/*.ipynb"))
+    for p in paths:
+        if not p.is_file():
+            ap.error(f"{p}: no such notebook; pass paths like chapters/01_realtime_basics.ipynb")
+    times: dict[Path, list[float]] = {p: [] for p in paths}
+    failed: dict[Path, str] = {}
+    for r in range(args.repeats):
+        for p in paths:
+            if p in failed:
+                continue
+            load = CpuLoad(processes=2) if args.load else contextlib.nullcontext()
+            try:
+                with load:
+                    _, seconds = execute(p, env={"ROBOCOURSE_TEST": "1"})
+            except Exception as exc:  # a failing notebook is reported, the others still timed
+                failed[p] = f"{type(exc).__name__}: {str(exc).strip().splitlines()[-1] if str(exc).strip() else ''}"
+                continue
+            times[p].append(seconds)
+            print(f"repeat {r + 1}/{args.repeats}: {p.relative_to(ROOT) if p.is_absolute() else p} {seconds:.1f} s",
+                  file=sys.stderr)
+    width = max(len(str(p.relative_to(ROOT) if p.is_absolute() else p)) for p in paths)
+    cond = "under load (two busy processes)" if args.load else "quiet"
+    print(f"headless time in test mode, {cond}, median [lowest-highest] of {args.repeats}; budget {BUDGET_S:.0f} s")
+    print(f"{'notebook':<{width}}  {'median s':>9}  {'range s':>13}  {'budget s':>8}  {'median/budget':>13}")
+    over = 0
+    for p in paths:
+        name = str(p.relative_to(ROOT) if p.is_absolute() else p)
+        if p in failed:
+            print(f"{name:<{width}}  FAILED: {failed[p]}")
+            continue
+        t = times[p]
+        med = statistics.median(t)
+        over += med > BUDGET_S
+        print(f"{name:<{width}}  {med:9.1f}  {min(t):6.1f}-{max(t):<6.1f}  {BUDGET_S:8.0f}  {med / BUDGET_S:12.2f}x"
+              + ("  OVER BUDGET" if med > BUDGET_S else ""))
+    total = sum(statistics.median(t) for p, t in times.items() if t)
+    print(f"total of medians: {total:.0f} s; {over} notebook(s) over budget; {len(failed)} failed")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

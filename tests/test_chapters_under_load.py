@@ -1,0 +1,84 @@
+"""Every chapter runs in test mode with chapter 1's CPU load, and says only what its data supports (issue 25).
+
+Each chapter notebook is executed headless (``ROBOCOURSE_TEST=1``, its kernel over IPC) while
+chapter 1's disturbance runs: ``CpuLoad(processes=2)``, two busy processes on the last allowed
+CPU. The test checks that it completes, and that every claim it rendered
+(``robocourse.notebook.claim``) is the one its own recorded numbers support: the claim is
+rebuilt from the inputs stored in the output's metadata and must give the same verdict and the
+same sentence, and that sentence must be what the notebook showed.
+
+This is the one CI run of the chapters (``pyproject.toml``'s ``testpaths`` lists ``solutions``
+for nbmake, not ``chapters``): a chapter that completes under load completes quiet, and running
+them twice would double the suite's biggest cost. ``pytest chapters/01_realtime_basics.ipynb``
+still runs one quiet with nbmake. The tests are marked ``serial``: they load a CPU on purpose, so
+a parallel run (pytest-xdist) must run them alone, not beside timing-sensitive tests.
+
+``KNOWN_LOAD_FAILURES``: chapters that do not survive the load yet, each with why and whose it
+is. They run quiet here (so they are still executed and their claims checked) until their owner
+fixes them and deletes the entry; the list may only shrink.
+
+``ROBOCOURSE_CLAIMS_OUT=<folder>`` writes each chapter's rendered claims there as JSON (the
+closing note of issue 25 lists them quiet and loaded; ``benchmarks/notebook_times.py --claims``
+writes the quiet ones).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+from robocourse.notebook.claims import Claim, recorded_claims
+from robocourse.notebook.run import execute
+from robocourse.rt.disturb import CpuLoad
+
+ROOT = Path(__file__).resolve().parents[1]
+CHAPTERS = sorted(p.relative_to(ROOT).as_posix() for p in ROOT.glob("chapters/*.ipynb"))
+#: per cell, as nbmake's timeout: a safety net far above the 60 s per-notebook goal, which
+#: benchmarks/notebook_times.py measures
+CELL_TIMEOUT_S = 240
+KNOWN_LOAD_FAILURES = {
+    "chapters/05_hardware_drivers.ipynb":
+        "pylibfranka aborts with 'Motion aborted by reflex! [communication_constraints_violation]' when two busy "
+        "processes share the machine (the simulated FR3 misses libfranka's 1 kHz deadlines); owners: ur/franka "
+        "helpers (issue 25, chapter 5)",
+}
+
+
+def claims_out(notebook: str, condition: str, records: list[dict]) -> None:
+    folder = os.environ.get("ROBOCOURSE_CLAIMS_OUT")
+    if not folder:
+        return
+    Path(folder).mkdir(parents=True, exist_ok=True)
+    name = Path(notebook).stem + f".{condition}.json"
+    rows = [{"what": r["what"], "verdict": r["verdict"], "text": r["text"]} for r in records]
+    (Path(folder) / name).write_text(json.dumps(rows, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+
+
+def test_known_load_failures_are_chapters():
+    assert set(KNOWN_LOAD_FAILURES) <= set(CHAPTERS)
+
+
+@pytest.mark.serial
+@pytest.mark.slow
+@pytest.mark.timeout(600)
+@pytest.mark.parametrize("notebook", CHAPTERS)
+def test_chapter_completes_under_load_and_its_claims_match_its_data(notebook):
+    loaded = notebook not in KNOWN_LOAD_FAILURES
+    load = CpuLoad(processes=2) if loaded else contextlib.nullcontext()
+    with load:
+        nb, _seconds = execute(ROOT / notebook, env={"ROBOCOURSE_TEST": "1"}, timeout=CELL_TIMEOUT_S)
+    records = recorded_claims(nb)
+    claims_out(notebook, "loaded" if loaded else "quiet", records)
+    wrong = []
+    for rec in records:
+        again = Claim.from_record(rec)
+        if (again.verdict, again.text) != (rec["verdict"], rec["text"]):
+            wrong.append(f"recorded {rec['verdict']!r}: {rec['text']}\n    its numbers say {again.verdict!r}: "
+                         f"{again.text}")
+        elif rec["text"] not in rec["_shown"]:
+            wrong.append(f"the output does not show the claim's sentence: {rec['text']}")
+    assert not wrong, f"{notebook}: claims its own data does not support:\n  " + "\n  ".join(wrong)
