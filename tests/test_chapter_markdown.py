@@ -70,10 +70,6 @@ KNOWN_VIOLATIONS: dict[str, list[str]] = {
         'The view is framed from the recording itself: the camera looks across the plane the pole swings in, so the rail runs left to right, and steps back until every recorded pose fits in 80 % of the view; the grid squares and the black bar on the floor give the scale (both sizes are printed under the scene and written on the label).',
         "And model 2, the seed's pendulum (0.01 kg at 0.5 m) driven by torque, as a MuJoCo model, caught from $\\delta$ = -0.3 rad (MuJoCo's hinge $q$ = 0.3) by the PD torque controller of the root-locus section (kp = 0.1 > m g L = 0.049, kd = 0.02):",
     ],
-    'chapters/03_mycar_comm.ipynb': [
-        "- **limits**: commands are clamped to [-1, 1] (the library's `MotorDriver.set_motor_speeds` does that, and refuses NaN), and `max_duty` keeps a 7.4 V motor on an 8.4 V battery below its rating.",
-        "For motion we need a car: `robocourse.sim.car.MujocoCar` is a MuJoCo model (chassis, two velocity-servoed wheels with a torque limit, casters), `MujocoMotorDriver` drives its wheels through the same `MotorDriver` interface, and the library's `SimulatorNode` steps the physics on a timer (its `rate_hz`, 200 Hz by default) and publishes **`/ground_truth`**: the chassis pose as MuJoCo knows it, in the `world` frame.",
-    ],
     'chapters/04_ros2_control.ipynb': [
         "`cm.run_realtime(seconds)` runs ros2_control_node's loop on the wall clock: absolute deadlines at the manager's `update_rate`, each stage timed (`read` = MuJoCo state -> state interfaces; `update` = the two active controllers; `write` = commands -> MuJoCo, which also steps the physics 2 ms).",
         'If `on_activate` does not copy the measured positions into the commands, the first `write()` after activation sends 0.0 rad to every motor.',
