@@ -84,25 +84,6 @@ KNOWN_VIOLATIONS: dict[str, list[str]] = {
     ],
     'chapters/05_hardware_drivers.ipynb': [
         '| transport | UDP, 1 kHz, synchronous | TCP: RTDE state stream 500 Hz + servoj targets |',
-        'An FPRD (configured-address read, command 4) of 2 bytes at register 0x0130 (AL status) of the slave with station address 0x1001: cmd, idx, ADP, ADO, length/flags, IRQ, data, working counter, all little-endian.',
-        '### 2.5 PDO mapping, then 1 kHz process data',
-    ],
-    'chapters/06_policy_deployment.ipynb': [
-        'The M12.9 "CRISP" deployment runs a learned policy **slowly** (50 Hz) outside the real-time thread and a ``ForwardCommandController`` **fast** (500 Hz) inside ros2_control\'s loop, repeating the newest action in between.',
-        'The task: keep the pole within 0.2 rad for 500 steps of 20 ms (solved at a mean return of 475 over 5 fixed episodes).',
-        "``ArmReachEnv`` is IsaacLab's Franka reach done on chapter 4's UR5e: the policy outputs joint offsets, ``target = default_pose + 0.5 * action`` goes to a PD servo that runs at the physics rate (500 Hz, inside ``mj_step``), the policy acts every ``decimation = 10`` steps (50 Hz) and holds its target in between.",
-        '``PolicyDeployment`` builds a controller manager at 500 Hz over ``robocourse/MujocoSystem`` (the UR5e), with a ``joint_state_broadcaster``, a ``ForwardCommandController`` on the six position interfaces and an effort controller for zero torque and damping.',
-        "Start-up is unitree's sequence: **zero torque** (the arm sags), **move to the default pose** (1 s ramp), **run**.",
-        'Real drives answer a few milliseconds late; below, the same policy in the training environment with 0, 10 and 20 ms of delay (5 and 10 physics steps at 2 ms), final distance and how much the action jumps between policy steps.',
-        'The same deployment runs for real: the control loop in a thread named ``cerebellum`` (``configure_realtime_thread``: SCHED_FIFO when allowed, reported honestly when not), the policy either in its own 50 Hz ``brain`` thread or inside the control loop, plus a baseline with no policy at all.',
-        'Two figures of the 500 Hz loop: its wake-up latency (how late each tick started) and the time each tick took (where inference inside the loop shows up: every 10th tick also runs the network, and a late tick delays the next one).',
-        'Heavier filtering smooths the accelerations and slows the arm down (and, at 50 Hz, adds lag the policy never saw in training).',
-        "The bridge keeps the last target for the 500 ms timeout, then enters the safe mode: ``hold`` (the position measured at that instant) or ``damping`` (kp = 0, tau = -8 dq: nothing holds the arm against gravity any more, the damping only slows its fall, as in unitree's damping state: on a real arm that is a choice to make with care).",
-    ],
-    'chapters/07_graph_across_processes.ipynb': [
-        'The counts say how much of the 1 kHz stream each side actually saw.',
-        "A ratio near 100% and few gaps over `LATE_GAP_MS` mean Python on this machine holds the seed's rates across the boundary; lower ratios and a fat gap tail mean the two processes compete for the CPU (two cores shared with whatever else runs), and BEST_EFFORT KEEP_LAST 1 drops what arrives late instead of queueing it, exactly as the seed chose.",
-        '`benchmarks/zenoh_transport.py` measures the same paths with more messages and a 1 kB payload.',
     ],
     'chapters/90_appendix_bus_api.ipynb': [
         'A *sensor* publishes a sine wave at 100 Hz; a *controller* subscribes.',

@@ -60,8 +60,8 @@ def test_every_failure_is_listed_not_only_the_first():
 
 def test_check_cell_shows_feedback_once_and_no_raw_result(capsys):
     _register("test.double", _doubles)
-    r = checks.check("test.double", lambda x: 2 * x)
-    assert capsys.readouterr().out == "[PASS] test.double (1/1): f doubles\n"
+    r = checks.check("test.double", lambda x: 2 * x, seed=7)
+    assert capsys.readouterr().out == "[PASS] test.double (1/1) [seed 7]: f doubles\n"
     assert r._ipython_display_() is None  # IPython shows nothing more for the returned Result
     assert "Result(" not in str(r)
 
@@ -209,7 +209,7 @@ def test_grading_package_imports_no_chapter_by_name(root):
                 assert not parts & chapters, f"{path.name} imports {n}"
             if isinstance(node, ast.Call) and getattr(node.func, "attr", "") == "import_module":
                 assert not isinstance(node.args[0], ast.JoinedStr), f"{path.name} imports by pattern"
-    found = {c.judge.__module__ for c in checks.discover().values() if c.judge.__module__.startswith("robocourse.")}
+    found = {c.module for c in checks.discover().values() if c.module.startswith("robocourse.")}
     lib = root / "lib"
     on_disk = {".".join(p.relative_to(lib).with_suffix("").parts) for p in (lib / "robocourse").glob("**/checks.py")
                if p.parent.name != "grading"}
@@ -230,3 +230,176 @@ def test_inside_the_grading_sandbox_check_cells_defer_to_the_grader(monkeypatch,
     monkeypatch.setenv(checks.GRADING_ENV, "1")
     r = checks.check("test.double", lambda x: 2 * x)
     assert (r.passed, r.points, r.reason) == (False, 0.0, "deferred") and capsys.readouterr().out == ""
+
+
+# -- issue 26: schemas, sub-tests with weights, budgets, seeds, delegation on every thread ------
+
+from robocourse.grading import SubTest  # noqa: E402
+from robocourse.grading.schema import Call, Dict, Int, List  # noqa: E402
+
+
+def _two_part_probe(inputs, f):
+    return {"double": [probes.call(f, x) for x in inputs["xs"]], "negative": probes.call(f, -1)}
+
+
+def _doubles_all(inputs, out):
+    for x, got in zip(inputs["xs"], out["double"], strict=True):
+        if got.get("value") != 2 * x:
+            raise CheckFailed(f"f({x}) returned {got.get('value', got.get('raised'))!r}, expected {2 * x}")
+    return ""
+
+
+def _refuses_negative(inputs, out):
+    if "raised" not in out["negative"]:
+        raise CheckFailed(f"f(-1) returned {out['negative']['value']!r}; raise ValueError for a negative input")
+    return ""
+
+
+def _two_part(name="test.parts", **kw):
+    return checks.register(name, uses=("f",), probe=_two_part_probe,
+                           inputs=lambda rng: {"xs": [int(x) for x in rng.integers(1, 100, 3)]},
+                           schema=Dict(double=List(Call(Int()), length="xs"), negative=Call(Int())),
+                           subtests=[SubTest("doubles its input", 2, _doubles_all, reads="double"),
+                                     SubTest("refuses a negative input", 1, _refuses_negative, reads="negative")],
+                           **kw)
+
+
+def _strict_double(x):
+    if x < 0:
+        raise ValueError("negative")
+    return 2 * x
+
+
+def test_sub_tests_score_their_own_weight_and_the_feedback_lists_each():
+    chk = _two_part()
+    assert chk.weight == 3.0
+    full = checks.run_check(chk, _strict_double, seed=4)
+    half = checks.run_check(chk, lambda x: 2 * x, seed=4)
+    assert (full.points, half.points) == (3.0, 2.0)
+    lines = half.line().splitlines()
+    assert lines[0] == "[FAIL] test.parts (2/3) [seed 4]: 1 of 2 sub-tests failed"
+    assert lines[1] == "    [PASS] doubles its input (2/2)"
+    assert lines[2].startswith("    [FAIL] refuses a negative input (0/1): f(-1) returned -2")
+
+
+def test_a_malformed_part_fails_only_the_sub_tests_reading_it():
+    chk = _two_part()
+    r = checks.run_check(chk, lambda x: (2 * x) if x > 0 else "no", seed=5)  # a str for -1
+    assert r.points == 2.0
+    bad = next(s for s in r.subtests if not s["passed"])
+    assert bad["reason"] == "malformed" and "your function returned str 'no': expected an int" in bad["message"]
+
+
+def test_forged_records_of_the_wrong_kind_or_shape_earn_nothing():
+    chk = _two_part()
+    inputs = {"xs": [1, 2, 3]}
+    for outputs in ({"double": [], "negative": {"value": -2, "type": "int"}},
+                    {"double": [{"value": "nan", "type": "float"}] * 3, "negative": {"value": 1, "type": "int"}},
+                    {"double": [{"value": 2.0, "type": "float"}, {"value": 4, "type": "int"}, {"value": 6}],
+                     "negative": {"value": True, "type": "bool"}}, "5/5", None, [1]):
+        r = checks.judge(chk, inputs, {"outputs": outputs})
+        assert r.points == 0.0 and r.reason in ("malformed", ""), (outputs, r.message)
+
+
+def test_a_record_over_its_size_budget_is_not_judged():
+    chk = _two_part(max_bytes=1000)
+    judged = []
+    big = {"double": [{"value": 2, "type": "int"}] * 3, "negative": {"raised": "V", "message": "x" * 5000,
+                                                                      "bases": ["V"]}}
+    r = checks.judge(chk, {"xs": [1, 1, 1]}, {"outputs": big})
+    assert r.reason == "oversize" and r.points == 0 and "reads at most 1000" in r.message and not judged
+
+
+def test_a_judge_past_its_time_budget_is_the_checks_fault_not_the_students():
+    def slow(inputs, out):
+        time.sleep(5)
+        return ""
+
+    checks.register("test.slow_judge", uses=("f",), probe=_call_probe, inputs=lambda rng: [2],
+                    schema=Call(Int()), subtests=[SubTest("slow", 1, slow)], judge_time_limit=0.3)
+    start = time.monotonic()
+    r = checks.judge(checks.get("test.slow_judge"), [2], {"outputs": {"value": 4, "type": "int"}})
+    assert time.monotonic() - start < 3
+    assert r.reason == "check_error" and "time budget" in r.message and "budget" in r.extra["instructor"]
+
+
+def test_a_judge_crash_on_a_validated_record_is_a_check_error():
+    def buggy(inputs, out):
+        return out["missing"]
+
+    checks.register("test.buggy", uses=("f",), probe=_call_probe, inputs=lambda rng: [2], schema=Call(Int()),
+                    subtests=[SubTest("buggy", 1, buggy)])
+    r = checks.run_check(checks.get("test.buggy"), lambda x: 2 * x, seed=1)
+    assert r.reason == "check_error" and "your instructor has been told" in r.message
+    assert "KeyError" in r.extra["instructor"]
+
+
+def test_sub_test_registration_errors_are_clear():
+    with pytest.raises(ValueError, match="sum to 3"):
+        _two_part("test.w", weight=2)
+    with pytest.raises(ValueError, match="must differ"):
+        checks.register("test.d", uses=("f",), probe=_call_probe,
+                        subtests=[SubTest("a", 1, _doubles), SubTest("a", 1, _doubles)])
+    with pytest.raises(ValueError, match="positive number"):
+        SubTest("a", 0, _doubles)
+
+    def judge(inputs, out):
+        return ""
+
+    def probe(inputs, f):
+        return f()
+
+    judge.__module__ = probe.__module__ = "robocourse.fake.checks"
+    with pytest.raises(ValueError, match="grading sandbox hides judge modules"):
+        checks.register("test.same_module", uses=("f",), probe=probe, schema=Int(),
+                        subtests=[SubTest("a", 1, judge)])
+
+
+def test_draws_are_seeded_per_submission_content():
+    assert checks.seed_for("ch00.to_ns", "abc") == checks.seed_for("ch00.to_ns", "abc")
+    assert checks.seed_for("ch00.to_ns", "abc") != checks.seed_for("ch00.to_ns", "abd")
+    assert checks.seed_for("ch00.to_ns", "abc") != checks.seed_for("ch00.budget", "abc")
+    assert 0 <= checks.seed_for("x", "y") < 2**32
+
+
+_POOL_RESULT = []
+
+
+def test_delegation_is_seen_on_every_thread_not_only_the_callers():
+    import _thread
+    import concurrent.futures
+    import threading
+
+    ref = f"{__name__}:_reference_double"
+    _register("test.ref_threads", _doubles, references=(ref,))
+    pool = concurrent.futures.ThreadPoolExecutor(1)  # started before the probe, as in an earlier cell
+    pool.submit(lambda: None).result()
+
+    def via_pool(x):
+        return pool.submit(_reference_double, x).result()
+
+    def via_raw_thread(x):
+        done = threading.Event()
+        _thread.start_new_thread(lambda: (_POOL_RESULT.append(_reference_double(x)), done.set()), ())
+        done.wait(5)
+        return _POOL_RESULT[-1]
+
+    try:
+        for attempt in (via_pool, via_raw_thread):
+            r = checks.check("test.ref_threads", attempt, quiet=True)
+            assert (r.points, r.reason) == (0.0, "delegated"), attempt.__name__
+        assert checks.check("test.ref_threads", lambda x: x + x, quiet=True).passed
+        assert _reference_double(4) == 8 and _reference_double.__code__.co_name == "_reference_double"  # restored
+    finally:
+        pool.shutdown()
+
+
+def test_two_records_under_one_name_are_tampering(tmp_path):
+    from robocourse.grading.grader import _read_probes
+
+    line = '{"name": "ch00.x", "outputs": {"value": 1}, "error": null, "delegated": []}'
+    (tmp_path / "p.jsonl").write_text(line + "\n" + line + "\n" + '{"name": "ch00.big", "outputs": "' + "x" * 20_000
+                                      + '"}\n')
+    got = _read_probes(tmp_path / "p.jsonl", {"ch00.x": 10_000, "ch00.big": 1000, "ch00.none": 1000})
+    assert "tampered" in got["ch00.x"][0] and got["ch00.big"][0] == {"oversize": got["ch00.big"][1]}
+    assert "ch00.none" not in got

@@ -158,7 +158,7 @@ def test_summary_table_counts_and_flags_unsandboxed():
     grades[1].results["ch00.c1"]["reason"] = "not_implemented"
     text = report.summary(grades, seconds=12.0, mode="bwrap", jobs=2)
     line = next(x for x in text.splitlines() if x.startswith("00_setup_exercises"))
-    assert line.split() == ["00_setup_exercises", "3", "1", "1", "3", "5", "0.0"]
+    assert line.split() == ["00_setup_exercises", "3", "1", "1", "3", "5", "0.0", "0.00"]
     assert "not implemented 2" in text and "NOT SANDBOXED (1): ben/00_setup_exercises" in text
 
 
@@ -185,7 +185,7 @@ def test_a_grader_failure_is_reported_and_not_journaled(tmp_path, root, monkeypa
     def broken(*a, **k):
         raise OSError("bwrap vanished")
 
-    monkeypatch.setattr(grader, "grade_one", broken)
+    monkeypatch.setattr(grader, "probe_submission", broken)
     out = tmp_path / "g.csv"
     [g] = grader.grade([str(root / "solutions" / "00_setup_exercises.ipynb")], solutions_dir=root / "solutions",
                        out=out)

@@ -1,11 +1,21 @@
 """The CRISP deployment under ros2_control: start-up sequence, reaching, safe mode when the brain dies,
 exit damping, clipping counted, bad observations and actions survived."""
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from robocourse.control import ACTIVE
-from robocourse.rl import UR5E_DEFAULT_POSE, ArmReachConfig, MLPPolicy, NumpyRuntime
+from robocourse.rl import (
+    UR5E_DEFAULT_POSE,
+    ArmReachConfig,
+    MLPPolicy,
+    NumpyRuntime,
+    load_runtime,
+    shipped,
+)
 from robocourse.rl.deployment import (
     EFFORT_CONTROLLER,
     MOVE,
@@ -14,6 +24,7 @@ from robocourse.rl.deployment import (
     ZERO_TORQUE,
     PolicyDeployment,
 )
+from robocourse.rl.handover import LatestValue, SharedLatestValue
 from robocourse.sim.robots import Kinematics
 
 CFG = ArmReachConfig()
@@ -118,11 +129,118 @@ def test_policy_with_the_wrong_action_size_is_refused_before_running():
 def test_realtime_run_measures_both_threads_and_the_observation_to_command_age():
     d = PolicyDeployment(NumpyRuntime(ik_policy()), CFG, target=tcp0() + [0.05, 0, 0], zero_torque_s=0.0, move_s=0.1)
     r = d.run_realtime(0.6)
+    assert r.placement == "thread"
     assert d.cm.controllers[POSITION_CONTROLLER].state == ACTIVE
     assert d.phase_log[0][1] == MOVE and d.phase_log[1][1] == RUNNING
-    assert r.control.iterations == 300
-    assert r.policy is not None and r.policy.iterations >= 1
+    assert r.control.iterations == 300 and r.stats().iterations == 300   # a run for rt.repeat.measure_rounds
+    assert len(r.policy_latency_us) >= 1
     assert r.thread_report.applied_name == "cerebellum"
-    assert len(r.inference_us) == d.runtime.calls > 0
+    assert len(r.inference_us) == d.runtime.calls == r.targets > 0
     assert len(r.age_us) > 0 and np.all(r.age_us >= 0)   # only the brain's targets carry an observation stamp
     assert "observation -> command age" in r.summary()
+
+
+def test_brain_in_its_own_process_drives_the_arm_through_shared_memory(tmp_path):
+    path = ik_policy().save(tmp_path / "ik.npz")
+    target = tcp0() + [0.05, 0, 0]
+    d = PolicyDeployment(load_runtime(path), CFG, target=target, zero_torque_s=0.0, move_s=0.1, placement="process")
+    start = d.tcp_distance()
+    r = d.run_realtime(1.2)
+    assert r.placement == "process" and d.runtime.calls == 0     # this process never ran the policy
+    assert r.targets >= 20 and len(r.inference_us) >= r.targets  # the child's measurements came back
+    assert len(r.policy_latency_us) >= 20
+    assert r.final_distance < 0.5 * start and d.bridge.safe_entries == 0
+
+
+def test_a_brain_process_that_stalls_trips_the_timeout():
+    d = PolicyDeployment(load_runtime(shipped.paths()["onnx"]), CFG, target=tcp0(), zero_torque_s=0.0, move_s=0.1,
+                         placement="process", stall_at=0.3, timeout=0.2)
+    r = d.run_realtime(0.9)
+    assert 0 < r.targets and d.bridge.safe_entries == 1
+
+
+def test_process_placement_needs_a_policy_file():
+    d = PolicyDeployment(NumpyRuntime(ik_policy()), CFG, placement="process")
+    with pytest.raises(ValueError, match="runtime made from a file"):
+        d.run_realtime(0.1)
+
+
+def test_joint_states_come_in_the_broadcasters_sorted_order_and_index_order_reads_the_wrong_joints():
+    d = PolicyDeployment(NumpyRuntime(ik_policy()), CFG, target=tcp0(), move_s=0.1)
+    d.run_simulated(0.2)
+    assert d.state_names == sorted(d.state_names) and d.state_names[0] == "elbow_joint"
+    msg = d.joint_states()
+    assert msg.name == d.state_names and len(msg.position) == len(d.state_names) == 8   # the gripper's joints too
+    right = d.brain.observation(msg.name, msg.position, msg.velocity)
+    np.testing.assert_allclose(right[:6], d._q - Q0, atol=1e-12)
+    wrong = PolicyDeployment(NumpyRuntime(ik_policy()), CFG, obs_by_name=False).brain.observation(
+        msg.name, msg.position, msg.velocity)
+    np.testing.assert_allclose(wrong[:6], np.array(msg.position[:6]) - Q0, atol=1e-12)   # elbow read as pan
+    with pytest.raises(ValueError, match="has no \\['wrist_3_joint'\\]"):
+        d.brain.observation(msg.name[:-1], msg.position[:-1], msg.velocity[:-1])
+
+
+def test_index_order_deployment_misses_the_target_that_by_name_reaches():
+    target = tcp0() + [0.08, 0.05, -0.05]
+    policy = shipped.load()                               # reads q and dq, unlike ik_policy
+    runs = {}
+    for by_name in (True, False):
+        d = PolicyDeployment(NumpyRuntime(policy), shipped.env_config(policy), target=target, move_s=0.2,
+                             obs_by_name=by_name)
+        runs[by_name] = d.run_simulated(2.0).tcp_distance[-1]
+    assert runs[True] < 0.06 and runs[False] > 2 * runs[True]
+
+
+def test_softer_servo_gains_than_training_change_the_reach():
+    from robocourse.sim.robots import ServoGains
+
+    soft = {j: ServoGains(kp=80.0, kd=8.0, kv=150.0) for j in ("shoulder_pan_joint", "shoulder_lift_joint",
+                                                              "elbow_joint")}
+    d = PolicyDeployment(NumpyRuntime(ik_policy()), CFG, target=tcp0() + [0.08, 0.05, -0.05], move_s=0.2,
+                         servo_gains=soft)
+    assert d.sim.gains["elbow_joint"].kp == 80.0 and d.processor.kp[2] == 80.0
+    d.run_simulated(0.5)
+
+
+def test_latest_value_copies_in_and_out_and_counts_writes():
+    lv = LatestValue(3)
+    assert lv.read()[1] == 0
+    buf = np.array([1.0, 2.0, 3.0])
+    assert lv.write(buf, 0.5) == 1
+    buf[:] = 9.0                                          # the writer reuses its buffer
+    value, seq, stamp = lv.read()
+    assert value.tolist() == [1.0, 2.0, 3.0] and (seq, stamp) == (1, 0.5)
+    value[:] = 7.0
+    assert lv.read()[0].tolist() == [1.0, 2.0, 3.0]
+    with pytest.raises(ValueError, match="wrote 2 values to a LatestValue of size 3"):
+        lv.write([1.0, 2.0], 0.0)
+
+
+def test_shared_latest_value_try_calls_never_wait_for_the_lock():
+    sv = SharedLatestValue(2)
+    try:
+        assert sv.write([1.0, 2.0], 3.0) == 1
+        out = np.zeros(2)
+        assert sv.try_read_into(out) == (1, 3.0) and out.tolist() == [1.0, 2.0]
+        other = SharedLatestValue.attach(sv.spec())
+        with sv.locked():                                 # the other side is mid-copy
+            assert other.try_read_into(out) is None and other.try_write([5.0, 5.0], 4.0) == 0
+        assert other.try_write([5.0, 6.0], 4.0) == 2
+        assert sv.read_into(out) == (2, 4.0) and out.tolist() == [5.0, 6.0]
+        other.close()
+        assert SharedLatestValue.attach(json.loads(json.dumps(sv.spec()))).read()[1] == 2   # plain data travels
+    finally:
+        sv.close()
+    assert not Path(sv.lock_path).exists()
+
+
+def test_widened_policy_gives_the_same_actions_at_a_bigger_cost():
+    from robocourse.rl.policy import widened
+
+    base = ik_policy()
+    big = widened(base, (64, 48))
+    assert big.sizes == [21, 64, 48, 6]
+    x = np.random.default_rng(0).normal(size=(50, 21))
+    np.testing.assert_allclose(big(x), base(x), atol=1e-12)
+    with pytest.raises(ValueError, match="at least 12 units"):
+        widened(base, (8,))

@@ -125,3 +125,53 @@ def test_action_of_wrong_size_or_nan_is_refused():
     with pytest.raises(ValueError, match=r"non-finite values at indices \[2\]"):
         p(np.array([0, 0, np.nan, 0, 0, 0]))
     assert p.processed == 0
+
+
+def test_stacked_observation_layouts_put_the_same_numbers_in_different_places():
+    from robocourse.rl.envs import CartPoleEnv, StackedObservation
+
+    envs = {lay: StackedObservation(CartPoleEnv(), 3, lay) for lay in ("time", "time_oldest_first", "term")}
+    obs = {lay: e.reset(seed=4)[0] for lay, e in envs.items()}
+    first = obs["time"][:4]
+    np.testing.assert_array_equal(obs["time"], np.tile(first, 3))            # reset: the first frame repeated
+    for e in envs.values():
+        o, *_ = e.step([0.5])
+    o1 = {lay: e.observation(e.env._obs()) for lay, e in envs.items()}      # one more frame of the same state
+    newest, older = o1["time"][:4], o1["time"][4:8]
+    np.testing.assert_array_equal(o1["time_oldest_first"][8:], newest)
+    np.testing.assert_array_equal(o1["term"][[0, 3, 6, 9]], newest)         # each term's history together
+    np.testing.assert_array_equal(o1["term"][[1, 4, 7, 10]], older)
+    with pytest.raises(ValueError, match="layout='frames' must be one of"):
+        StackedObservation(CartPoleEnv(), 3, "frames")
+
+
+def test_shipped_history_policy_balances_only_with_its_training_layout():
+    from robocourse.rl import shipped
+    from robocourse.rl.ars import evaluate
+    from robocourse.rl.envs import CartPoleEnv, StackedObservation
+
+    pol = shipped.history_policy()
+    assert pol.meta["history"] == 3 and pol.meta["history_layout"] == "time" and pol.obs_size == 12
+    (w, _), = pol.layers
+    ret = {lay: evaluate(StackedObservation(CartPoleEnv(), 3, lay), w, pol.normalizer.mean, pol.normalizer.std,
+                         range(300, 303))[0] for lay in ("time", "term")}
+    assert ret["time"] >= CartPoleEnv.threshold and ret["term"] < 100
+
+
+def test_projected_gravity_and_the_quaternion_order_mistake():
+    import math
+
+    from robocourse.rl.frames import projected_gravity, ur_base_to_base_link, wxyz_from_ros
+    from robocourse.viz.transforms import quaternion_from_rotation, rot_y, rot_z
+
+    np.testing.assert_allclose(projected_gravity([1, 0, 0, 0]), [0, 0, -1])
+    w, x, y, z = quaternion_from_rotation(rot_y(math.radians(10)))
+    np.testing.assert_allclose(projected_gravity(wxyz_from_ros(x, y, z, w)),
+                               [math.sin(math.radians(10)), 0, -math.cos(math.radians(10))], atol=1e-12)
+    w, x, y, z = quaternion_from_rotation(rot_z(math.radians(90)))
+    right, wrong = projected_gravity(wxyz_from_ros(x, y, z, w)), projected_gravity([x, y, z, w])
+    np.testing.assert_allclose(right, [0, 0, -1], atol=1e-12)
+    assert math.degrees(math.acos(np.clip(right @ wrong, -1, 1))) == pytest.approx(90.0)
+    np.testing.assert_allclose(ur_base_to_base_link([0.3, -0.2, 0.5]), [-0.3, 0.2, 0.5], atol=1e-12)
+    with pytest.raises(ValueError, match="4 finite numbers"):
+        projected_gravity([0, 0, 0, 0])

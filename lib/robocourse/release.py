@@ -89,6 +89,8 @@ MANIFEST: tuple[Rule, ...] = (
     Rule("include", "benchmarks/**", "measured figures a student can reproduce"),
     # tests: the library's unit tests and notebook execution, not the instructor's
     Rule("exclude", "tests/test_release.py", "builds an edition from solutions/"),
+    Rule("exclude", "tests/banks/**", "answer banks: their correct answers are solutions"),
+    Rule("exclude", "tests/test_banks.py", "grades the answer banks against solutions/"),
     Rule("exclude", "tests/test_notebooks_clean.py", "committed notebooks are stripped; a student's saved work is not"),
     Rule("exclude", "tests/test_chapters_under_load.py",
          "the course's one CI run of the chapters (under load); the edition's pytest runs them with nbmake"),

@@ -69,6 +69,7 @@ class Grade:
     late_days: int = 0
     penalty: float = 0.0  # fraction of the points removed for lateness
     resumed: bool = False
+    judge_seconds: float = 0.0  # the grader's own time judging this submission's records
 
     @property
     def raw_points(self) -> float:
@@ -196,17 +197,50 @@ def _probe_spec(chk: checks_mod.Check) -> dict:
                          "define it with def in the check file") from None
 
 
-def _read_probes(path: Path, wanted: set[str]) -> dict:
-    """The first well-formed record per asked-for check name; everything else is ignored."""
+_NAME_PREFIX = re.compile(r'^\{"name": ("(?:[^"\\]|\\.){0,300}")')
+
+
+def _read_probes(path: Path, budgets: dict[str, int]) -> dict[str, tuple[dict, int]]:
+    """{record name: (record, its JSON bytes)} for every asked-for name; everything else ignored.
+
+    ``budgets``: name -> the largest record its check reads. A record past it is not parsed
+    (``{"oversize": bytes}``); two records under one name mean the file was written to by
+    someone other than the probe (``{"tampered": why}``): only the runner writes one per name.
+    """
     text, _ = sandbox.read_bounded(path, MAX_PROBE_BYTES)
-    out = {}
+    out: dict[str, tuple[dict, int]] = {}
+    counts: dict[str, int] = {}
     for line in text.splitlines():
+        m = _NAME_PREFIX.match(line)
+        try:
+            name = json.loads(m.group(1)) if m else None
+        except ValueError:
+            name = None
+        if name is None and len(line) < 1_000_000:
+            try:
+                r = json.loads(line)
+                name = r.get("name") if isinstance(r, dict) else None
+            except (ValueError, RecursionError):
+                continue  # a half-written line from a killed run, or junk
+        if name not in budgets:
+            continue
+        counts[name] = counts.get(name, 0) + 1
+        nbytes = len(line.encode("utf-8", errors="replace"))
+        if counts[name] > 1:
+            out[name] = ({"tampered": f"the grader received {counts[name]} records for this check where its probe "
+                                      "writes one: something in the notebook wrote to the grader's probe file, so "
+                                      "none of them is trusted"}, nbytes)
+            continue
+        if nbytes > budgets[name] + 10_000:  # the envelope (name, error, seconds) around the outputs
+            out[name] = ({"oversize": nbytes}, nbytes)
+            continue
         try:
             r = json.loads(line)
-        except ValueError:
-            continue  # a half-written line from a killed run, or junk
-        if isinstance(r, dict) and r.get("name") in wanted and r["name"] not in out:
-            out[r["name"]] = r
+        except (ValueError, RecursionError):
+            out[name] = ({"outputs": None, "error": "the probe's record could not be read (malformed JSON)",
+                          "reason": "raised"}, nbytes)
+            continue
+        out[name] = (r if isinstance(r, dict) else {}, nbytes)
     return out
 
 
@@ -239,17 +273,74 @@ def warm_font_cache(workroot: Path) -> Path:
     return cache
 
 
-def grade_one(sub: Submission, assignment: Assignment | None, *, limits: sandbox.Limits, cell_timeout: float,
-              mode: str, workroot: Path) -> Grade:
+@dataclass
+class Execution:
+    """What one sandboxed run of the runner left: its outcome, the probe records, its status."""
+
+    outcome: sandbox.Outcome
+    records: dict  # name -> (record, JSON bytes)
+    status: dict
+
+
+def execute(request: dict, notebook: bytes | None, workroot: Path, limits: sandbox.Limits, mode: str,
+            budgets: dict[str, int]) -> Execution:
+    """Run ``runner`` on ``request`` (and the notebook's bytes) in a fresh private folder.
+
+    The folder holds the submission alone; judge-side modules are hidden (bwrap); the folder
+    is deleted afterwards. Used for submissions and for the answer banks (``bank.py``).
+    """
+    work = Path(tempfile.mkdtemp(prefix="sub-", dir=workroot))
+    try:
+        os.chmod(work, 0o700)
+        if notebook is not None:
+            (work / runner.NOTEBOOK).write_bytes(notebook)
+        (work / "tmp").mkdir()
+        for cached in (workroot / "mplcache").glob("fontlist-*.json"):
+            shutil.copy(cached, work / "tmp" / cached.name)
+        (work / runner.REQUEST).write_text(json.dumps(request))
+        hide = sandbox.hidden_files(checks_mod.judge_side_modules()) if mode == "bwrap" else []
+        outcome = sandbox.run([sys.executable, "-m", "robocourse.grading.runner",
+                               sandbox.SANDBOX_ROOT if mode == "bwrap" else str(work)], work, limits, mode, hide=hide)
+        records = _read_probes(work / runner.PROBES, budgets)
+        text, _ = sandbox.read_bounded(work / runner.STATUS, 1_000_000)
+        try:
+            status = json.loads(text) if text else {}
+            status = status if isinstance(status, dict) else {}
+        except ValueError:
+            status = {}
+        return Execution(outcome, records, status)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def probe_request(chk: checks_mod.Check, inputs, name: str | None = None) -> dict:
+    """The runner's request entry for one probe of ``chk`` (record ``name``, default the check's)."""
+    return {"name": name or chk.name, "check": chk.name, "uses": list(chk.uses), "probe": _probe_spec(chk),
+            "inputs": inputs, "time_limit": chk.time_limit, "references": list(chk.references)}
+
+
+@dataclass
+class Probed:
+    """A submission after its sandboxed run, before judging (``judge_submission``)."""
+
+    grade: Grade
+    checks: list
+    inputs: dict
+    seeds: dict
+    records: dict
+    where: dict
+
+
+def probe_submission(sub: Submission, assignment: Assignment | None, *, limits: sandbox.Limits,
+                     cell_timeout: float, mode: str, workroot: Path, salt: str = "") -> Probed:
+    """Run one submission in its sandbox and gather its probe records (no verdict yet)."""
     g = Grade(sub.student, sub.path, assignment.name if assignment else "?", notes=list(sub.notes))
     if assignment is None:
         g.status = ("cannot tell which assignment this is: its file name contains no notebook name from "
                     "solutions/; rename it or pass --assignment NAME")
-        return g
+        return Probed(g, [], {}, {}, {}, {})
     registry = checks_mod.discover()
     chks = [registry[n] for n in assignment.checks]
-    rng = np.random.default_rng(int.from_bytes(os.urandom(8), "little"))
-    inputs = {c.name: c.make_inputs(rng) for c in chks}
     start = time.monotonic()
     try:
         data = sub.path.read_bytes()[:MAX_NOTEBOOK_BYTES + 1]
@@ -257,67 +348,75 @@ def grade_one(sub: Submission, assignment: Assignment | None, *, limits: sandbox
         data, g.status = b"", f"cannot read the submission: {exc}"
     if len(data) > MAX_NOTEBOOK_BYTES:
         g.status = f"the notebook is larger than {MAX_NOTEBOOK_BYTES // 2**20} MB; clear its outputs and resubmit"
+    digest = hashlib.sha256(data).hexdigest()
+    seeds = {c.name: checks_mod.seed_for(c.name, digest, salt) for c in chks}
+    inputs = {c.name: c.make_inputs(np.random.default_rng(seeds[c.name])) for c in chks}
     where = _check_cells(data)
-    probed: dict = {}
-    status: dict = {}
+    records: dict = {}
     if not g.status:
-        work = Path(tempfile.mkdtemp(prefix="sub-", dir=workroot))
-        try:
-            os.chmod(work, 0o700)
-            (work / runner.NOTEBOOK).write_bytes(data)
-            (work / "tmp").mkdir()
-            for cached in (workroot / "mplcache").glob("fontlist-*.json"):
-                shutil.copy(cached, work / "tmp" / cached.name)
-            request = {"cell_timeout": min(cell_timeout, limits.time_s),
-                       "checks": [{"name": c.name, "uses": list(c.uses), "probe": _probe_spec(c),
-                                   "inputs": inputs[c.name], "time_limit": c.time_limit,
-                                   "references": list(c.references)} for c in chks]}
-            (work / "request.json").write_text(json.dumps(request))
-            outcome = sandbox.run([sys.executable, "-m", "robocourse.grading.runner",
-                                   sandbox.SANDBOX_ROOT if mode == "bwrap" else str(work)], work, limits, mode)
-            g.sandbox = outcome.sandbox
-            probed = _read_probes(work / runner.PROBES, set(assignment.checks))
-            text, _ = sandbox.read_bounded(work / runner.STATUS, 1_000_000)
-            try:
-                status = json.loads(text) if text else {}
-                status = status if isinstance(status, dict) else {}
-            except ValueError:
-                status = {}
-            if outcome.stopped == "time":
-                g.status = f"stopped after the {limits.time_s:g} s time limit (an endless loop or a very slow cell)"
-            elif outcome.stopped == "memory":
-                g.status = f"stopped: used more than the {limits.memory_mb} MB memory limit"
-            elif outcome.stopped == "processes":
-                g.status = f"stopped: started more than {limits.max_processes} processes"
-            elif isinstance(status.get("reason"), str) and status["reason"]:
-                g.status = status["reason"][:500]
-            elif not status.get("finished"):
-                g.status = ("the notebook's process died (os._exit, a crash, or the memory limit); "
-                            "checks after that point did not run")
-                if not status:
-                    g.errors.append("log: " + outcome.log.strip()[-300:])
-            if outcome.leftover:
-                g.notes.append(f"{outcome.leftover} process(es) survived the kill")
-            if isinstance(status.get("output_chars"), int) and status["output_chars"] > limits.output_bytes:
-                g.notes.append(f"printed {status['output_chars']} characters (not kept)")
-            errs = status.get("errors", [])
-            g.errors += [str(e)[:300] for e in (errs if isinstance(errs, list) else [])][:20]
-        finally:
-            shutil.rmtree(work, ignore_errors=True)
+        request = {"cell_timeout": min(cell_timeout, limits.time_s),
+                   "checks": [probe_request(c, inputs[c.name]) for c in chks]}
+        run = execute(request, data, workroot, limits, mode, {c.name: c.max_bytes for c in chks})
+        outcome, status, records = run.outcome, run.status, run.records
+        g.sandbox = outcome.sandbox
+        if outcome.stopped == "time":
+            g.status = f"stopped after the {limits.time_s:g} s time limit (an endless loop or a very slow cell)"
+        elif outcome.stopped == "memory":
+            g.status = f"stopped: used more than the {limits.memory_mb} MB memory limit"
+        elif outcome.stopped == "processes":
+            g.status = f"stopped: started more than {limits.max_processes} processes"
+        elif isinstance(status.get("reason"), str) and status["reason"]:
+            g.status = status["reason"][:500]
+        elif not status.get("finished"):
+            g.status = ("the notebook's process died (os._exit, a crash, or the memory limit); "
+                        "checks after that point did not run")
+            if not status:
+                g.errors.append("log: " + outcome.log.strip()[-300:])
+        if outcome.leftover:
+            g.notes.append(f"{outcome.leftover} process(es) survived the kill")
+        if isinstance(status.get("output_chars"), int) and status["output_chars"] > limits.output_bytes:
+            g.notes.append(f"printed {status['output_chars']} characters (not kept)")
+        errs = status.get("errors", [])
+        g.errors += [str(e)[:300] for e in (errs if isinstance(errs, list) else [])][:20]
     g.seconds = round(time.monotonic() - start, 3)
-    for chk in chks:
-        r = probed.get(chk.name)
-        if r is None:
+    return Probed(g, chks, inputs, seeds, records, where)
+
+
+def result_entry(result: checks_mod.Result, chk: checks_mod.Check, cell=None) -> dict:
+    """A judged Result as the journal/CSV/feedback row entry of one check."""
+    return {"points": min(result.points, chk.weight), "weight": chk.weight, "passed": result.passed,
+            "message": result.message, "reason": result.reason, "cell": cell, "subtests": result.subtests,
+            "seed": result.seed, "judge_seconds": round(result.judge_seconds, 4)}
+
+
+def judge_submission(p: Probed) -> Grade:
+    """Judge every check of a probed submission here, in the grader's process."""
+    g = p.grade
+    for chk in p.checks:
+        got = p.records.get(chk.name)
+        if got is None:
             why = g.status or "its probe never ran (the notebook stopped before)"
-            result = checks_mod.Result(chk.name, False, 0.0, chk.weight, f"did not run: {why}", reason="no_output")
+            result = checks_mod.Result(chk.name, False, 0.0, chk.weight, f"did not run: {why}", reason="no_output",
+                                       subtests=[{"name": s.name, "weight": s.weight, "points": 0.0, "passed": False,
+                                                  "message": f"did not run: {why}", "reason": "no_output"}
+                                                 for s in chk.subtests if s.name],
+                                       seed=p.seeds.get(chk.name) if chk.inputs else None)
         else:
-            result = checks_mod.judge(chk, inputs[chk.name], r)
+            record, nbytes = got
+            result = checks_mod.judge(chk, p.inputs[chk.name], record, nbytes=nbytes,
+                                      seed=p.seeds.get(chk.name) if chk.inputs else None)
         if result.reason == "check_error":
             g.instructor.append(result.extra.get("instructor", chk.name))
-        g.results[chk.name] = {"points": min(result.points, chk.weight), "weight": chk.weight,
-                               "passed": result.passed, "message": result.message, "reason": result.reason,
-                               "cell": where.get(chk.name)}
+        g.results[chk.name] = result_entry(result, chk, p.where.get(chk.name))
+        g.judge_seconds = round(g.judge_seconds + result.judge_seconds, 4)
     return g
+
+
+def grade_one(sub: Submission, assignment: Assignment | None, *, limits: sandbox.Limits, cell_timeout: float,
+              mode: str, workroot: Path, salt: str = "") -> Grade:
+    """Probe one submission in its sandbox, then judge it here."""
+    return judge_submission(probe_submission(sub, assignment, limits=limits, cell_timeout=cell_timeout, mode=mode,
+                                             workroot=workroot, salt=salt))
 
 
 # -- the run ------------------------------------------------------------------------------------
@@ -358,7 +457,7 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
           feedback_dir: str | os.PathLike | None = None, progress=None, sandbox_mode: str = "auto",
           force: bool = False, due: dt.datetime | None = None, late_penalty: float = 0.0,
           overrides: str | os.PathLike | None = None, canvas: str | os.PathLike | None = None,
-          gradescope: str | os.PathLike | None = None, resume: bool = True) -> GradeList:
+          gradescope: str | os.PathLike | None = None, resume: bool = True, salt: str = "") -> GradeList:
     """Grade every submission; write the CSV, exports and feedback if asked; return the grades."""
     from . import report
 
@@ -400,7 +499,8 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
         warm_font_cache(workroot)
     grades: list[Grade | None] = [None] * len(subs)
 
-    def one(i: int) -> Grade:
+    def one(i: int):
+        """In a worker thread: a journaled Grade, or the Probed submission to judge."""
         s = subs[i]
         a = assignments.get(s.assignment) if s.assignment else None
         try:
@@ -411,17 +511,16 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
         if journal and resume and key in journal.done:
             g = Grade.from_json(journal.done[key])
             g.resumed = True
-            return g
-        try:
-            g = grade_one(s, a, limits=limits, cell_timeout=cell_timeout, mode=mode, workroot=workroot)
-        except Exception as exc:  # the grader's own failure: reported, never blamed on the student
-            g = Grade(s.student, s.path, a.name if a else "?", notes=list(s.notes),
-                      status=f"not graded: the grader failed ({type(exc).__name__}: {str(exc)[:200]})",
-                      instructor=[f"{s.path}: the grader raised {type(exc).__name__}: {str(exc)[:200]}"])
-            return g  # not journaled: a re-run grades it again
-        if journal:
-            journal.append(key, g)
-        return g
+            return key, g
+        return key, probe_submission(s, a, limits=limits, cell_timeout=cell_timeout, mode=mode, workroot=workroot,
+                                     salt=salt)
+
+    def failed(i: int, exc: BaseException) -> Grade:
+        # the grader's own failure: reported, never blamed on the student, not journaled (a re-run grades it)
+        s = subs[i]
+        return Grade(s.student, s.path, s.assignment or "?", notes=list(s.notes),
+                     status=f"not graded: the grader failed ({type(exc).__name__}: {str(exc)[:200]})",
+                     instructor=[f"{s.path}: the grader raised {type(exc).__name__}: {str(exc)[:200]}"])
 
     start = time.monotonic()
     try:
@@ -429,9 +528,18 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
             futures = {pool.submit(one, i): i for i in range(len(subs))}
             for fut in concurrent.futures.as_completed(futures):
                 i = futures[fut]
-                grades[i] = fut.result()
+                try:
+                    key, got = fut.result()
+                    # judging happens here, in the calling thread (the judge's time budget is a
+                    # SIGALRM where that is the main thread)
+                    g = got if isinstance(got, Grade) else judge_submission(got)
+                    if journal and not g.resumed:
+                        journal.append(key, g)
+                except Exception as exc:
+                    g = failed(i, exc)
+                grades[i] = g
                 if progress:
-                    progress(grades[i])
+                    progress(g)
     finally:
         shutil.rmtree(workroot, ignore_errors=True)
     result = GradeList(g for g in grades if g is not None)

@@ -19,11 +19,19 @@ from pathlib import Path
 REASONS = {"not_implemented": "not implemented", "timeout": "probe timed out", "raised": "student code raised",
            "delegated": "called the library's reference", "missing": "a required name is missing",
            "check_error": "CHECK ERROR (the check's fault)", "no_output": "did not run", "": "wrong answer",
-           "override": "instructor override"}
+           "override": "instructor override", "malformed": "output of the wrong form",
+           "oversize": "output over the size budget", "tampered": "probe records tampered with"}
 
 
 def _where(r: dict) -> str:
     return f" (check cell {r['cell']})" if isinstance(r.get("cell"), int) else " (no check cell: graded anyway)"
+
+
+def check_lines(name: str, r: dict, where: str = "") -> list[str]:
+    """One check's feedback: its mark, points and seed, then each sub-test (or its problems)."""
+    from .checks import render
+
+    return render(name, r, where)
 
 
 def feedback_text(g) -> str:
@@ -35,12 +43,7 @@ def feedback_text(g) -> str:
         lines.append(f"Note: {g.status}")
     lines.append("")
     for name, r in g.results.items():
-        mark = "PASS" if r["passed"] else "FAIL"
-        msg = r["message"].splitlines() or [""]
-        head = f"[{mark}] {name}{_where(r)} ({r['points']:g}/{r['weight']:g}): "
-        lines.append(head + (msg[0] if len(msg) == 1 else f"{len(msg)} problems"))
-        if len(msg) > 1:
-            lines += [f"    - {m}" for m in msg]
+        lines += check_lines(name, r, _where(r))
     if g.errors:
         lines += ["", "Errors while running your notebook:"] + [f"  {e}" for e in g.errors]
     return "\n".join(lines) + "\n"
@@ -51,7 +54,16 @@ def feedback_html(g) -> str:
     rows = []
     for name, r in g.results.items():
         color = "#1a7f37" if r["passed"] else "#cf222e"
-        msg = "<br>".join(e(m) for m in r["message"].splitlines())
+        named = [x for x in r.get("subtests") or [] if x.get("name")]
+        if named:
+            msg = "<br>".join(
+                f"<span style='color:{'#1a7f37' if x['passed'] else '#cf222e'}'>{'PASS' if x['passed'] else 'FAIL'}</span> "
+                f"{e(x['name'])} ({x['points']:g}/{x['weight']:g})"
+                + "".join(f"<br>&nbsp;&nbsp;&nbsp;&nbsp;{e(m)}" for m in str(x['message']).splitlines()) for x in named)
+        else:
+            msg = "<br>".join(e(m) for m in r["message"].splitlines())
+        if r.get("seed") is not None:
+            msg += f"<br><small>draws: seed {r['seed']}</small>"
         rows.append(f"<tr><td style='color:{color}'>{'PASS' if r['passed'] else 'FAIL'}</td><td><code>{e(name)}</code>"
                     f"</td><td>{e(_where(r).strip(' ()'))}</td><td>{r['points']:g}/{r['weight']:g}</td><td>{msg}</td></tr>")
     errors = "".join(f"<li><code>{e(x)}</code></li>" for x in g.errors)
@@ -91,13 +103,15 @@ def summary(grades, *, ignored=(), unknown=(), seconds=0.0, mode="", jobs=1, due
     for g in grades:
         by_assignment.setdefault(g.assignment, []).append(g)
     lines.append("")
-    lines.append(f"{'assignment':<28}{'n':>4}{'full':>6}{'zero':>6}{'median':>9}{'max':>6}{'s/sub':>8}")
+    lines.append(f"{'assignment':<28}{'n':>4}{'full':>6}{'zero':>6}{'median':>9}{'max':>6}{'s/sub':>8}"
+                 f"{'judge s':>9}")
     for name, gs in sorted(by_assignment.items()):
         pts = [g.points for g in gs]
         top = max(g.max_points for g in gs)
         lines.append(f"{name:<28}{len(gs):>4}{sum(g.points == g.max_points > 0 for g in gs):>6}"
                      f"{sum(p == 0 for p in pts):>6}{statistics.median(pts):>9g}{top:>6g}"
-                     f"{statistics.median(g.seconds for g in gs):>8.1f}")
+                     f"{statistics.median(g.seconds for g in gs):>8.1f}"
+                     f"{statistics.median(getattr(g, 'judge_seconds', 0.0) for g in gs):>9.2f}")
     reasons = Counter(REASONS.get(r.get("reason", ""), r.get("reason", "")) for g in grades
                       for r in g.results.values() if not r["passed"])
     if reasons:

@@ -9,6 +9,10 @@ probe on the notebook's globals. Each probe's data is appended to ``probes.jsonl
 a notebook that crashes later keeps what was gathered before. Nothing here decides a grade:
 everything this process writes is treated by the grader as the student's untrusted output.
 
+An answer bank's request (``bank.py``) carries ``segments`` instead of a notebook: each runs in
+a fresh namespace (setup cell, answer cell, check cell) and its probe follows its last cell.
+The notebook is read as plain JSON (nbformat's import alone costs seconds per sandbox).
+
 Each cell has a time limit (SIGALRM interrupts it; execution goes on with the next cell);
 ``sys.exit`` and exceptions are recorded as cell errors; printed output is counted, not kept.
 """
@@ -50,10 +54,13 @@ class _CountingSink(io.TextIOBase):
 
 def kernel_problem(nb: dict) -> str:
     """'' when the notebook is Python; else why it cannot be graded."""
-    meta = nb.get("metadata", {}) or {}
-    spec = meta.get("kernelspec", {}) or {}
+    def mapping(value):
+        return value if isinstance(value, dict) else {}
+
+    meta = mapping(nb.get("metadata"))
+    spec = mapping(meta.get("kernelspec"))
     name = str(spec.get("name", ""))
-    language = str(spec.get("language") or (meta.get("language_info", {}) or {}).get("name") or "python").lower()
+    language = str(spec.get("language") or mapping(meta.get("language_info")).get("name") or "python").lower()
     if language == "python" or name in PYTHON_KERNEL_NAMES or name.startswith("python"):
         return ""
     return (f"the notebook asks for kernel {name or '?'!r} (language {language!r}), which cannot run the exercise; "
@@ -71,6 +78,42 @@ def _load_probe(spec: dict):
     return namespace[spec["func"]]
 
 
+def read_cells(text: str) -> list[dict]:
+    """The cells of a version-4 notebook's JSON, each ``{"cell_type", "source"}`` with the source a str.
+
+    What the runner needs of nbformat's reader, without importing nbformat (its jsonschema
+    import costs seconds in every sandbox). Raises ValueError naming what is wrong.
+    """
+    nb = json.loads(text)
+    if not isinstance(nb, dict) or not isinstance(nb.get("cells"), list):
+        raise ValueError("no list of cells")
+    if nb.get("nbformat") != 4:
+        raise ValueError(f"nbformat {nb.get('nbformat')!r}; version 4 is what JupyterLab writes")
+    cells = []
+    for i, cell in enumerate(nb["cells"]):
+        if not isinstance(cell, dict) or cell.get("cell_type") not in ("code", "markdown", "raw"):
+            raise ValueError(f"cell {i} is not a code, markdown or raw cell")
+        source = cell.get("source", "")
+        if isinstance(source, list) and all(isinstance(x, str) for x in source):
+            source = "".join(source)
+        if not isinstance(source, str):
+            raise ValueError(f"cell {i} has a source that is not text")
+        cells.append({"cell_type": cell["cell_type"], "source": source})
+    return cells
+
+
+def _load_notebook(folder: Path):
+    """The notebook's cells, or a sentence saying why it cannot be graded."""
+    try:
+        text = (folder / NOTEBOOK).read_text(encoding="utf-8")
+        cells = read_cells(text)
+        nb = json.loads(text)
+    except (ValueError, UnicodeDecodeError, RecursionError) as exc:  # invalid JSON, wrong structure
+        return (f"the file is not a valid notebook ({type(exc).__name__}: {str(exc)[:200]}); "
+                "re-download it or save it again from JupyterLab")
+    return kernel_problem(nb) or cells
+
+
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     folder = Path(argv[0] if argv else ".")
@@ -85,34 +128,36 @@ def main(argv=None) -> int:
     request = json.loads((folder / REQUEST).read_text())
     (folder / REQUEST).unlink()
     cell_timeout = float(request.get("cell_timeout", 60))
-    try:
-        import nbformat
+    if request.get("segments") is not None:
+        cells = []
+    else:
+        problem = _load_notebook(folder)
+        if isinstance(problem, str):
+            status["reason"], status["finished"] = problem, True
+            write_status()
+            return 0
+        cells = problem
 
-        nb = nbformat.reads((folder / NOTEBOOK).read_text(encoding="utf-8"), as_version=4)
-        nbformat.validate(nb)
-        cells = list(nb.cells)
-    except Exception as exc:  # invalid JSON, wrong schema
-        status["reason"] = (f"the file is not a valid notebook ({type(exc).__name__}: {str(exc)[:200]}); "
-                            "re-download it or save it again from JupyterLab")
-        status["finished"] = True
-        write_status()
-        return 0
-    problem = kernel_problem(nb)
-    if problem:
-        status["reason"], status["finished"] = problem, True
-        write_status()
-        return 0
+    from .checks import CHECK_CALL, Check, run_probe
 
-    from .checks import Check, run_probe
-    from .exercises import CHECK_CALL
-
+    # one probe per requested record id ("name"; the check it runs is "check", default the same)
     pending = {c["name"]: c for c in request["checks"]}
-    after_cell: dict[int, list[str]] = {}
-    for index, cell in enumerate(cells):
-        if cell.get("cell_type") == "code":
-            for name in CHECK_CALL.findall(cell.get("source", "")):
-                if name in pending and not any(name in v for v in after_cell.values()):
-                    after_cell.setdefault(index, []).append(name)
+    segments = request.get("segments")
+    if segments is None:
+        # a submitted notebook: one segment, each check probed right after the cell that calls it
+        after_cell: dict[int, list[str]] = {}
+        for index, cell in enumerate(cells):
+            if cell.get("cell_type") == "code":
+                for name in CHECK_CALL.findall(cell.get("source", "")):
+                    if name in pending and not any(name in v for v in after_cell.values()):
+                        after_cell.setdefault(index, []).append(name)
+        segments = [{"cells": [(i, c.get("source", "")) for i, c in enumerate(cells) if c.get("cell_type") == "code"],
+                     "after": after_cell, "fresh": False}]
+    else:
+        # a bank of answers (robocourse.grading.bank): each segment runs in a fresh namespace and
+        # its probes follow its last cell
+        segments = [{"cells": [(k, src) for k, src in enumerate(seg["cells"])],
+                     "after": {len(seg["cells"]) - 1: list(seg["probes"])}, "fresh": True} for seg in segments]
 
     sink = _CountingSink()
     sys.stdout = sys.stderr = sink
@@ -134,8 +179,8 @@ def main(argv=None) -> int:
             data = {"outputs": None, "reason": "missing", "delegated": [], "seconds": 0.0,
                     "error": f"the notebook defines no {', '.join(missing)}: keep the names the exercise asks for"}
         else:
-            chk = Check(name, None, _load_probe(spec["probe"]), tuple(spec["uses"]), None, 1.0,
-                        float(spec["time_limit"]), "", tuple(spec.get("references", ())))
+            chk = Check(spec.get("check", name), None, _load_probe(spec["probe"]), tuple(spec["uses"]),
+                        time_limit=float(spec["time_limit"]), references=tuple(spec.get("references", ())))
             data = run_probe(chk, spec["inputs"], [shell.user_ns[u] for u in spec["uses"]])
         try:
             line = json.dumps({"name": name, **data})
@@ -150,27 +195,30 @@ def main(argv=None) -> int:
 
     signal.signal(signal.SIGALRM, on_alarm)
     start = time.monotonic()
-    for index, cell in enumerate(cells):
-        if cell.get("cell_type") != "code":
-            continue
-        status["last_cell"] = index
-        write_status()
-        signal.setitimer(signal.ITIMER_REAL, cell_timeout)
-        try:
-            result = shell.run_cell(cell.get("source", ""), store_history=False, silent=False)
-        except CellTimeout as exc:  # fired outside the user's code, between IPython's steps
-            result = None
-            status["errors"].append(f"cell {index}: CellTimeout: {exc}")
-        finally:
-            signal.setitimer(signal.ITIMER_REAL, 0)
-        if result is not None:
-            err = result.error_before_exec or result.error_in_exec
-            if err is not None:
-                ename = type(err).__name__
-                status["errors"].append(f"cell {index}: {ename}: {str(err)[:200]}")
-        for name in after_cell.get(index, []):
-            probe(name)
-        status["cells"] += 1
+    for number, segment in enumerate(segments):
+        if segment["fresh"]:
+            shell.reset(new_session=False)
+            sys.stdout = sys.stderr = sink
+        for index, source in segment["cells"]:
+            where = f"cell {index}" if not segment["fresh"] else f"segment {number} cell {index}"
+            status["last_cell"] = index
+            write_status()
+            signal.setitimer(signal.ITIMER_REAL, cell_timeout)
+            try:
+                result = shell.run_cell(source, store_history=False, silent=False)
+            except CellTimeout as exc:  # fired outside the user's code, between IPython's steps
+                result = None
+                status["errors"].append(f"{where}: CellTimeout: {exc}")
+            finally:
+                signal.setitimer(signal.ITIMER_REAL, 0)
+            if result is not None:
+                err = result.error_before_exec or result.error_in_exec
+                if err is not None:
+                    ename = type(err).__name__
+                    status["errors"].append(f"{where}: {ename}: {str(err)[:200]}")
+            for name in segment["after"].get(index, []):
+                probe(name)
+            status["cells"] += 1
     for name in list(pending):
         probe(name)
     status["finished"] = True

@@ -142,9 +142,31 @@ def _read_only_paths() -> list[str]:
     return out
 
 
-def bwrap_command(workdir: Path, argv: list[str], env: dict, read_only: list[str] | None = None) -> list[str]:
+def hidden_files(modules) -> list[str]:
+    """The source and bytecode files of ``modules`` (judge-side modules), to hide in a sandbox."""
+    import importlib.util
+
+    out = []
+    for name in modules:
+        try:
+            spec = importlib.util.find_spec(name)
+        except (ImportError, ValueError):
+            continue
+        origin = getattr(spec, "origin", None) if spec else None
+        if not origin or not origin.endswith(".py") or not os.path.isfile(origin):
+            continue
+        out.append(origin)
+        cache = Path(origin).parent / "__pycache__"
+        if cache.is_dir():
+            out += sorted(str(p) for p in cache.glob(f"{Path(origin).stem}.*.pyc"))
+    return out
+
+
+def bwrap_command(workdir: Path, argv: list[str], env: dict, read_only: list[str] | None = None,
+                  hide: list[str] = ()) -> list[str]:
     """The bwrap argv: /usr, the Python installation and ``read_only`` (default: the venv and the
     library) read-only, ``workdir`` at /submission, and /tmp the submission's own ``tmp``.
+    Each file in ``hide`` (the judge modules and their bytecode) reads as empty inside.
 
     /tmp is bound before the read-only paths, so a course that lives under /tmp (a clone in
     /tmp, a venv in /tmp) still gets its read-only binds on top of the submission's /tmp (a
@@ -163,6 +185,8 @@ def bwrap_command(workdir: Path, argv: list[str], env: dict, read_only: list[str
     cmd += ["--bind", str(workdir / "tmp"), "/tmp"]
     for p in _read_only_paths() if read_only is None else read_only:
         cmd += ["--ro-bind", p, p]
+    for path in hide:
+        cmd += ["--ro-bind", "/dev/null", path]
     cmd += ["--proc", "/proc", "--dev", "/dev", "--bind", str(workdir), SANDBOX_ROOT,
             "--chdir", SANDBOX_ROOT, "--clearenv"]
     for k, v in env.items():
@@ -218,15 +242,18 @@ def _kill(procs: list[psutil.Process]) -> None:
     psutil.wait_procs(procs, timeout=3)
 
 
-def run(argv: list[str], workdir: Path, limits: Limits, mode: str = "auto") -> Outcome:
-    """Run ``argv`` (a Python command) on ``workdir`` under ``limits``; kill everything at the end."""
+def run(argv: list[str], workdir: Path, limits: Limits, mode: str = "auto", hide: list[str] = ()) -> Outcome:
+    """Run ``argv`` (a Python command) on ``workdir`` under ``limits``; kill everything at the end.
+
+    ``hide``: files that read as empty inside the sandbox (bwrap only; see :func:`hidden_files`).
+    """
     mode = choose_mode(mode)
     marker = uuid.uuid4().hex
     (workdir / "tmp").mkdir(exist_ok=True)
     log_path = workdir.parent / f"{workdir.name}.log"
     if mode == "bwrap":
         env = clean_env(SANDBOX_ROOT, marker)
-        cmd, cwd = bwrap_command(workdir, argv, env), "/"
+        cmd, cwd = bwrap_command(workdir, argv, env, hide=list(hide)), "/"
         env_outer = {"PATH": "/usr/bin:/bin"}
     else:
         env_outer = clean_env(str(workdir), marker)

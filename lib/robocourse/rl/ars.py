@@ -142,19 +142,27 @@ def train(env, score, threshold: float, config: ARSConfig | None = None, progres
     return TrainResult(policy, solved, it, steps, time.perf_counter() - t0, history)
 
 
-def train_cartpole(config: ARSConfig | None = None, progress: bool = True, **env_kwargs) -> TrainResult:
-    """Balance the cart-pole: solved when the mean return over 5 fixed episodes is >= 475."""
-    from .envs import CartPoleEnv
+def train_cartpole(config: ARSConfig | None = None, progress: bool = True, history: int = 1,
+                   history_layout: str = "time", **env_kwargs) -> TrainResult:
+    """Balance the cart-pole: solved when the mean return over 5 fixed episodes is >= 475.
+    ``history > 1`` trains on the last ``history`` observations stacked by ``history_layout``
+    (:class:`~robocourse.rl.envs.StackedObservation`)."""
+    from .envs import CartPoleEnv, StackedObservation
 
     env = CartPoleEnv(**env_kwargs)
+    if history > 1:
+        env = StackedObservation(env, history, history_layout)
     seeds = list(range(10_000, 10_005))
 
     def score(w, mean, std):
         value, _, n = evaluate(env, w, mean, std, seeds)
         return value, n
 
+    meta = {"env": "cartpole", "config": env_kwargs}
+    if history > 1:
+        meta.update(history=history, history_layout=history_layout)
     return train(env, score, CartPoleEnv.threshold, config or ARSConfig(n_directions=4, top=2, step_size=0.1, noise=0.1),
-                 progress, meta={"env": "cartpole", "config": env_kwargs})
+                 progress, meta=meta)
 
 
 ARM_ARS = ARSConfig(max_iterations=150, episodes=4, shared_episode=True, step_size=0.03)

@@ -20,10 +20,21 @@ Where the pieces live (DESIGN.md's layering): the deployment is chapter 6's, her
 joint bridge is the shared chapter package's (:mod:`robocourse.control.joint_bridge`) and the
 thread set-up a foundation's (:mod:`robocourse.rt.realtime_thread`), so rl imports no other chapter.
 
+The brain reads what ``/joint_states`` carries: the joint_state_broadcaster's joints in its
+order (the resource manager's, sorted by name here), and looks each joint up by name
+(:class:`~robocourse.rl.brain.Brain`; ``obs_by_name=False`` is the index-order bug).
+
 ``run_simulated`` steps both on simulated time in one thread (deterministic: the policy every
-``decimation`` ticks, as in training); ``run_realtime`` runs them on the wall clock in two
-threads (the cerebellum configured by :func:`~robocourse.rt.realtime_thread.configure_realtime_thread`) and measures per-thread
-loop latency, inference time and the observation -> command age.
+``decimation`` ticks, as in training); ``run_realtime`` runs them on the wall clock with the
+brain placed by ``placement``: ``"in_loop"`` (inside the control thread, every ``decimation``
+ticks), ``"thread"`` (a 'brain' thread of this process, handing over through the bridge's
+lock) or ``"process"`` (a process of its own, handing over through shared-memory latest-value
+buffers the control thread only ever try-locks). The control thread is configured by
+:func:`~robocourse.rt.realtime_thread.configure_realtime_thread`; each run measures loop
+latency, tick durations, inference time and the observation -> command age.
+
+The control stack's log lines (controller manager, resource manager) are kept in
+``self.cm.log`` and not printed unless ``log=LogSink()`` is passed.
 """
 
 from __future__ import annotations
@@ -38,8 +49,12 @@ import numpy as np
 from robocourse.control.joint_bridge import DAMPING, HOLD, RUN, JointBridge
 from robocourse.rt.realtime_thread import configure_realtime_thread, release_realtime_thread
 
+from .brain import Brain
 from .envs import ARM_JOINTS, ArmReachConfig
+from .handover import LatestValue, SharedLatestValue
 from .postprocess import ActionProcessor
+
+PLACEMENTS = ("in_loop", "thread", "process")
 
 POSITION_CONTROLLER = "policy_position_controller"
 EFFORT_CONTROLLER = "damping_effort_controller"
@@ -90,15 +105,32 @@ class Trace:
 
 @dataclass
 class RealtimeResult:
-    """What :meth:`PolicyDeployment.run_realtime` measured (times in microseconds where named ``_us``)."""
+    """What :meth:`PolicyDeployment.run_realtime` measured (times in microseconds where named ``_us``).
 
+    ``stats()``, ``latency_ns`` and ``busy_ns`` are the control loop's, so a result is a run for
+    :func:`robocourse.rt.repeat.measure_rounds` (metrics "p99", "max", "overruns", "busy p99" ...).
+    """
+
+    placement: str                      # "none" (no brain), "in_loop", "thread" or "process"
     control: object                     # robocourse.rt LoopResult of the 500 Hz thread
-    policy: object | None               # LoopResult of the policy thread (None without a policy)
+    policy_latency_us: np.ndarray       # wake-up latency of the brain's own loop (empty in the loop / none)
     inference_us: np.ndarray
     age_us: np.ndarray
     thread_report: object
     final_distance: float
     safe_entries: int
+    targets: int                        # new targets that reached the control loop
+
+    def stats(self):
+        return self.control.stats()
+
+    @property
+    def latency_ns(self) -> np.ndarray:
+        return self.control.latency_ns
+
+    @property
+    def busy_ns(self) -> np.ndarray:
+        return self.control.busy_ns
 
     def summary(self) -> str:
         def pct(a):
@@ -106,14 +138,15 @@ class RealtimeResult:
                     if len(a) else "(none)")
 
         c = np.asarray(self.control.latency_ns, dtype=float) / 1e3
-        rows = [f"control loop wake-up latency (us): {pct(c)}  overruns {self.control.overruns}",
+        rows = [f"brain placement: {self.placement}",
+                f"control loop wake-up latency (us): {pct(c)}  overruns {self.control.overruns}",
                 f"control tick duration (us):        {pct(np.asarray(self.control.busy_ns, dtype=float) / 1e3)}"]
-        if self.policy is not None:
-            p = np.asarray(self.policy.latency_ns, dtype=float) / 1e3
-            rows.append(f"policy loop wake-up latency (us):  {pct(p)}")
+        if len(self.policy_latency_us):
+            rows.append(f"policy loop wake-up latency (us):  {pct(self.policy_latency_us)}")
         rows.append(f"inference (us):                    {pct(self.inference_us)}")
         rows.append(f"observation -> command age (us):   {pct(self.age_us)}")
-        rows.append(f"final TCP distance {100 * self.final_distance:.1f} cm; safe-mode entries {self.safe_entries}")
+        rows.append(f"final TCP distance {100 * self.final_distance:.1f} cm; targets received {self.targets}; "
+                    f"safe-mode entries {self.safe_entries}")
         return "\n".join(rows)
 
 
@@ -123,30 +156,38 @@ class PolicyDeployment:
     ``update_rate``: the controller manager's rate (Hz); ``policy_rate``: the brain's rate
     (default: the training rate ``1 / (timestep * decimation)``); ``alpha``: EMA weight of the
     previous target; ``joint_order``: the order the policy's observation/action use (default:
-    the robot's, :data:`ARM_JOINTS`); ``obs_fn(q_rel, dq_scaled, target_rel, last_action)``
-    replaces the observation layout (for the pitfall demonstrations); ``inference_in_rt`` runs
-    the policy inside the control thread; ``stall_at`` (s) stops the brain (a dying policy
-    thread); ``zero_torque_s``/``move_s`` the start-up phases, ``damping_kd`` the exit damping.
+    the robot's, :data:`ARM_JOINTS`); ``obs_by_name=False`` reads /joint_states in its own
+    order (the joint-order bug); ``obs_fn(q_rel, dq_scaled, target_rel, last_action)``
+    replaces the observation layout (for the pitfall demonstrations); ``placement`` where
+    ``run_realtime`` runs the brain (:data:`PLACEMENTS`); ``servo_gains`` replaces the robot's
+    servo gains (``{joint: ServoGains}``: a robot tuned differently from the training sim);
+    ``stall_at`` (s) stops the brain (a dying policy); ``zero_torque_s``/``move_s`` the start-up
+    phases, ``damping_kd`` the exit damping; ``log`` the control stack's
+    :class:`~robocourse.control.log.LogSink` (default: records kept, nothing printed).
     """
 
     def __init__(self, runtime, env_config: ArmReachConfig | None = None, *, update_rate: int = 500,
                  policy_rate: float | None = None, alpha: float = 0.0, target=None, joint_order=None,
-                 obs_fn=None, timeout: float = 0.5, safe_mode: str = HOLD, inference_in_rt: bool = False,
-                 stall_at: float | None = None, zero_torque_s: float = 0.05, move_s: float = 1.0,
-                 damping_kd: float = 8.0, context=None):
+                 obs_by_name: bool = True, obs_fn=None, timeout: float = 0.5, safe_mode: str = HOLD,
+                 placement: str = "thread", servo_gains=None, stall_at: float | None = None,
+                 zero_torque_s: float = 0.05, move_s: float = 1.0, damping_kd: float = 8.0, context=None, log=None):
         from robocourse.control import ControllerManager
         from robocourse.control.hardware.mujoco_system import MujocoSystem
         from robocourse.control.introspection import spawner
+        from robocourse.control.log import LogSink
         from robocourse.sim.robots import Kinematics, RobotSim, urdf_text
 
         self.config = c = env_config or ArmReachConfig()
         n = len(ARM_JOINTS)
+        if placement not in PLACEMENTS:
+            raise ValueError(f"placement={placement!r} must be one of {', '.join(PLACEMENTS)}")
         if runtime.obs_size != 21 and obs_fn is None:
             raise ValueError(f"the policy takes {runtime.obs_size} observations; the reach task's layout has 21 "
                              "(pass obs_fn to build another layout)")
         if runtime.act_size != n:
             raise ValueError(f"the policy outputs {runtime.act_size} actions; the UR5e arm has {n} joints")
         self.runtime = runtime
+        self.placement = placement
         self.update_rate = int(update_rate)
         self.period = 1.0 / self.update_rate
         self.policy_rate = 1.0 / c.policy_dt if policy_rate is None else float(policy_rate)
@@ -155,48 +196,64 @@ class PolicyDeployment:
             raise ValueError(f"update_rate {self.update_rate} Hz / policy_rate {self.policy_rate} Hz must be an "
                              "integer >= 1 (the controller repeats each target a whole number of ticks)")
         self.decimation = int(round(self.decimation))
-        self.sim = RobotSim("ur5e", timestep=self.period if self.period <= 0.005 else 0.001)
+        self.sim = RobotSim("ur5e", timestep=self.period if self.period <= 0.005 else 0.001, gains=servo_gains)
         self.sim.reset(list(c.default_pose) + [0.04])
         params = {"timestep": str(self.sim.model.opt.timestep)}
         self.cm = ControllerManager(urdf_text("ur5e", plugin="robocourse/MujocoSystem", params=params),
                                     params=controllers_yaml(self.update_rate),
-                                    components={"UR5e": MujocoSystem(sim=self.sim)}, context=context)
+                                    components={"UR5e": MujocoSystem(sim=self.sim)}, context=context,
+                                    log=log if log is not None else LogSink(log_to_stderr=False))
         if not spawner(self.cm, ["joint_state_broadcaster"], quiet=True) or \
                 not spawner(self.cm, [POSITION_CONTROLLER, EFFORT_CONTROLLER], inactive=True, quiet=True):
             raise RuntimeError(f"spawning the deployment's controllers failed: {self.cm.log.records[-1].msg}")
         self.position = self.cm.controllers[POSITION_CONTROLLER].c
         self.effort = self.cm.controllers[EFFORT_CONTROLLER].c
         self._keys = [(f"{j}/position", f"{j}/velocity") for j in ARM_JOINTS]
+        # what /joint_states carries: the broadcaster's joints, in its order
+        self.state_names = list(self.cm.controllers["joint_state_broadcaster"].c.joint_names)
+        self._state_keys = [(f"{j}/position", f"{j}/velocity") for j in self.state_names]
+        ns = len(self.state_names)
+        self._state = np.zeros(2 * ns)
         self.default = np.array(c.default_pose, dtype=float)
         self.tcp_default = Kinematics("ur5e").calculate_link_transform(np.r_[self.default])[:3, 3]
         self.target = self.tcp_default.copy() if target is None else np.asarray(target, dtype=float)
-        order = list(ARM_JOINTS) if joint_order is None else list(joint_order)
-        if sorted(order) != sorted(ARM_JOINTS):
-            raise ValueError(f"joint_order {order} must be a permutation of {list(ARM_JOINTS)}")
-        self.perm = np.array([ARM_JOINTS.index(j) for j in order])  # policy index i -> robot joint perm[i]
-        self.obs_fn = obs_fn
         lims = self.sim.limits
-        self.processor = ActionProcessor(
-            self.default, c.action_scale, [lims[j].lower for j in ARM_JOINTS], [lims[j].upper for j in ARM_JOINTS],
-            alpha=alpha, clip_actions=c.clip_actions, torque_limit=[lims[j].effort for j in ARM_JOINTS],
+        self._processor_args = dict(
+            default_pose=self.default.tolist(), action_scale=c.action_scale,
+            lower=[lims[j].lower for j in ARM_JOINTS], upper=[lims[j].upper for j in ARM_JOINTS], alpha=alpha,
+            clip_actions=c.clip_actions, torque_limit=[lims[j].effort for j in ARM_JOINTS],
             kp=[self.sim.gains[j].kp for j in ARM_JOINTS], kd=[self.sim.gains[j].kd for j in ARM_JOINTS])
+        self.processor = ActionProcessor(**self._processor_args)
+        self.brain = Brain(runtime, c, self.processor, target=self.target, tcp_default=self.tcp_default,
+                           joint_order=joint_order, obs_fn=obs_fn, by_name=obs_by_name)
+        self._brain_args = dict(joint_order=self.brain.joint_order, obs_fn=obs_fn, by_name=bool(obs_by_name))
+        self.perm = self.brain.perm
         self.bridge = JointBridge(ARM_JOINTS, timeout=timeout, safe_mode=safe_mode)
-        self.inference_in_rt, self.stall_at = bool(inference_in_rt), stall_at
+        self.stall_at = stall_at
         self.zero_torque_s, self.move_s, self.damping_kd = float(zero_torque_s), float(move_s), float(damping_kd)
-        # state shared between the threads (the latest-value buffer of observations)
-        self._obs_lock = threading.Lock()
+        # the latest-value buffer of /joint_states between the cerebellum and a brain in this process
+        self._shared = LatestValue(2 * ns)
+        self._brain_buf = np.zeros(2 * ns)
         self._q, self._dq = np.zeros(n), np.zeros(n)
-        self._q_shared, self._dq_shared, self._t_shared = np.zeros(n), np.zeros(n), -1.0
-        self.last_action = np.zeros(n)
         self._effort_cmd = np.zeros(n)
         self.phase, self._phase_t0, self._move_from = None, 0.0, np.zeros(n)
         self._mode = None  # no command controller active yet: the first phase activates one
-        self.nan_observations = 0
-        self.policy_errors: list[str] = []
-        self.inference_ns = np.zeros(200_000, dtype=np.int64)
         self.ages_ns = np.zeros(200_000, dtype=np.int64)
-        self.n_inference = self.n_ages = 0
+        self.n_ages = 0
         self.phase_log: list[tuple[float, str]] = []
+
+    # --- what the brain measured (kept on the brain; here for the notebook's convenience) ---------------
+    @property
+    def nan_observations(self) -> int:
+        return self.brain.nan_observations
+
+    @property
+    def policy_errors(self) -> list[str]:
+        return self.brain.policy_errors
+
+    @property
+    def last_action(self) -> np.ndarray:
+        return self.brain.last_action
 
     # --- helpers ---------------------------------------------------------------------------------------
     def _read_state(self) -> None:
@@ -204,6 +261,18 @@ class PolicyDeployment:
         for i, (kp, kv) in enumerate(self._keys):
             self._q[i] = rm.value(kp)
             self._dq[i] = rm.value(kv)
+        st, ns = self._state, len(self._state_keys)
+        for i, (kp, kv) in enumerate(self._state_keys):
+            st[i] = rm.value(kp)
+            st[ns + i] = rm.value(kv)
+
+    def joint_states(self):
+        """This tick's /joint_states as the broadcaster builds it (sensor_msgs/JointState, its joint order)."""
+        from robocourse.msgs.sensor_msgs import JointState
+
+        ns = len(self.state_names)
+        return JointState(name=list(self.state_names), position=self._state[:ns].tolist(),
+                          velocity=self._state[ns:].tolist())
 
     def _set_phase(self, phase: str, now: float) -> None:
         self.phase, self._phase_t0 = phase, now
@@ -223,52 +292,36 @@ class PolicyDeployment:
             return
         on, off = (EFFORT_CONTROLLER, POSITION_CONTROLLER) if mode == "effort" else (POSITION_CONTROLLER,
                                                                                       EFFORT_CONTROLLER)
-        self.cm.switch_controller([on], [off], strictness=1)
+        self.cm.switch_controller([on], [off], strictness=1, timeout=1.0)
         self._mode = mode
 
     def build_observation(self, q, dq) -> np.ndarray:
-        """The reach task's observation in the policy's joint order (or ``obs_fn``'s layout)."""
-        c, p = self.config, self.perm
-        q_rel, dq_s = (q - self.default)[p], (dq * c.dof_vel_scale)[p]
-        target_rel = self.target - self.tcp_default
-        if self.obs_fn is not None:
-            return np.asarray(self.obs_fn(q_rel, dq_s, target_rel, self.last_action), dtype=float)
-        return np.concatenate([q_rel, dq_s, target_rel, self.last_action])
+        """The reach observation from positions/velocities in the robot's order (:data:`ARM_JOINTS`)."""
+        return self.brain.observation(ARM_JOINTS, q, dq)
 
     # --- the brain ------------------------------------------------------------------------------------
     def policy_tick(self, now: float) -> bool:
-        """One inference from the newest observation; submit the target. False when nothing was sent."""
-        with self._obs_lock:
-            q, dq, t_obs = self._q_shared.copy(), self._dq_shared.copy(), self._t_shared
-        if t_obs < 0 or self.phase != RUNNING:
+        """One inference from the newest /joint_states; submit the target. False when nothing was sent."""
+        seq, t_obs = self._shared.read_into(self._brain_buf)
+        if seq == 0 or self.phase != RUNNING:
             return False
-        obs = self.build_observation(q, dq)
-        t0 = _time.perf_counter_ns()
-        try:
-            raw = self.runtime(obs)
-        except ValueError as exc:
-            self.nan_observations += "non-finite" in str(exc)
-            self.policy_errors.append(str(exc))
+        ns = len(self.state_names)
+        targets = self.brain.step(self.state_names, self._brain_buf[:ns], self._brain_buf[ns:])
+        if targets is None:
             return False
-        dt = _time.perf_counter_ns() - t0
-        if self.n_inference < len(self.inference_ns):
-            self.inference_ns[self.n_inference] = dt
-            self.n_inference += 1
-        a = np.clip(raw, -self.config.clip_actions, self.config.clip_actions)
-        self.last_action = a.copy()
-        robot_action = np.empty_like(a)
-        robot_action[self.perm] = a
-        targets = self.processor(robot_action, q, dq)
         return self.bridge.submit(targets, stamp=t_obs, now=now)
 
     # --- the cerebellum -------------------------------------------------------------------------------
-    def control_tick(self, now: float, wall_ns: int | None = None) -> None:
-        """Read state, share it, apply this tick's command, run one controller manager cycle."""
+    def control_tick(self, now: float, share=None) -> None:
+        """Read state, share it, apply this tick's command, run one controller manager cycle.
+
+        ``share(state, now)`` hands /joint_states to the brain (default: this process's latest-value buffer).
+        """
         self._read_state()
-        with self._obs_lock:
-            self._q_shared[:] = self._q
-            self._dq_shared[:] = self._dq
-            self._t_shared = now
+        if share is None:
+            self._shared.write(self._state, now)
+        else:
+            share(self._state, now)
         if self.phase is None:
             self._set_phase(ZERO_TORQUE if self.zero_torque_s > 0 else MOVE, now)
         elif self.phase == ZERO_TORQUE and now - self._phase_t0 >= self.zero_torque_s:
@@ -323,7 +376,8 @@ class PolicyDeployment:
             if k == ticks and damp:
                 self._set_phase(EXIT_DAMPING, now)
             if self.phase == RUNNING and (k % self.decimation == 0) and self._brain_due(now):
-                self._share_now(now)
+                self._read_state()                    # the brain sees the state at `now`, as the env's step does
+                self._shared.write(self._state, now)
                 self.policy_tick(now)
             self.control_tick(now)
             t[k], q[k], dq[k], dist[k] = now, self._q, self._dq, self.tcp_distance()
@@ -335,42 +389,84 @@ class PolicyDeployment:
                 drawer.update(self.sim.data)
         return Trace(t, q, dq, tg, dist, phases, modes)
 
-    def _share_now(self, now: float) -> None:
-        """Deterministic path: the brain sees the state at ``now`` (as the env's policy step does)."""
-        self._read_state()
-        with self._obs_lock:
-            self._q_shared[:] = self._q
-            self._dq_shared[:] = self._dq
-            self._t_shared = now
+    def _process_spec(self) -> dict:
+        path = getattr(self.runtime, "path", None)
+        if path is None:
+            raise ValueError("placement='process' loads the policy again in the brain's process: use a runtime "
+                             "made from a file (OnnxRuntime(path) or load_runtime(path))")
+        q_start = self._q.copy()
+        return {"policy_path": str(path), "io_binding": getattr(self.runtime, "io_binding", True),
+                "config": self.config.as_dict(), "processor": self._processor_args, "q_start": q_start.tolist(),
+                "target": self.target.tolist(), "tcp_default": self.tcp_default.tolist(),
+                "robot_joints": list(ARM_JOINTS), "state_names": list(self.state_names),
+                "policy_rate": self.policy_rate, "stall_at": self.stall_at, **self._brain_args}
 
     def run_realtime(self, seconds: float, with_policy: bool = True, priority: int = 80,
-                     wait=None) -> RealtimeResult:
+                     wait=None, placement: str | None = None) -> RealtimeResult:
         """Wall clock: the control loop in a thread named 'cerebellum' (SCHED_FIFO ``priority`` when
-        allowed), the policy in a thread named 'brain' at ``policy_rate`` (or inside the control
-        loop with ``inference_in_rt``). ``with_policy=False`` runs the same control loop with no
-        brain (the baseline: the bridge holds the start-up pose)."""
+        allowed), the brain placed by ``placement`` (default: the constructor's): inside the control
+        loop every ``decimation`` ticks, in a thread named 'brain' at ``policy_rate``, or in a process
+        of its own at ``policy_rate``. ``with_policy=False`` runs the same control loop with no brain
+        (the baseline: the bridge holds the start-up pose)."""
         from robocourse.rt import Hybrid, PeriodicLoop, Sleep
 
+        placement = self.placement if placement is None else placement
+        if placement not in PLACEMENTS:
+            raise ValueError(f"placement={placement!r} must be one of {', '.join(PLACEMENTS)}")
+        if not with_policy:
+            placement = "none"
         ticks = max(1, int(round(seconds * self.update_rate)))
         period_ns = int(round(1e9 / self.update_rate))
         out: dict = {}
         stop, started = threading.Event(), threading.Event()
         start_t = self.cm.time
         policy_every = self.decimation
+        proc = conn = state_shm = target_shm = None
+        share = None
+        targets_in = [0]
+        if placement == "process":
+            import multiprocessing as mp
+
+            from .brain import brain_process_main
+
+            self._read_state()
+            ns = len(self.state_names)
+            state_shm, target_shm = SharedLatestValue(2 * ns), SharedLatestValue(len(ARM_JOINTS))
+            ctx = mp.get_context("spawn")
+            conn, child_conn = ctx.Pipe()
+            proc = ctx.Process(target=brain_process_main, name="brain",
+                               args=(self._process_spec(), state_shm.spec(), target_shm.spec(), child_conn),
+                               daemon=True)
+            proc.start()
+            if not conn.poll(60.0) or conn.recv() != "ready":
+                proc.kill()
+                raise RuntimeError("the brain process did not start within 60 s")
+            tbuf, last_seq = np.zeros(len(ARM_JOINTS)), [0]
+
+            def share(state, now):
+                # never waits: skipped when the brain holds the lock; stamped NaN until the run phase
+                state_shm.try_write(state, now if self.phase == RUNNING else math.nan)
+                got = target_shm.try_read_into(tbuf)
+                if got is not None and got[0] != last_seq[0] and self.phase == RUNNING:
+                    last_seq[0] = got[0]
+                    targets_in[0] += self.bridge.submit(tbuf, stamp=got[1], now=now)
 
         def cerebellum():
             report = configure_realtime_thread("cerebellum", "fifo", priority)
             out["report"] = report
             # the clock starts after the configuration: mlockall of a large process takes a while
             start = out["start"] = _time.monotonic_ns()
+            if conn is not None:
+                conn.send((start, start_t))
             started.set()
 
             def cb(tick):
                 now = start_t + (tick.deadline_ns - start) * 1e-9
-                if with_policy and self.inference_in_rt and tick.iteration % policy_every == 0 \
-                        and self._brain_due(now):
-                    self.policy_tick(now)
-                self.control_tick(now)
+                if placement == "in_loop" and tick.iteration % policy_every == 0 and self._brain_due(now):
+                    self._read_state()
+                    self._shared.write(self._state, now)
+                    targets_in[0] += self.policy_tick(now)
+                self.control_tick(now, share)
 
             try:
                 out["control"] = PeriodicLoop(period_ns, ticks, wait or Hybrid()).run(cb, start_ns=start)
@@ -391,19 +487,40 @@ class PolicyDeployment:
                     return
                 now = start_t + (tick.wake_ns - start) * 1e-9
                 if self._brain_due(now):
-                    self.policy_tick(now)
+                    targets_in[0] += self.policy_tick(now)
 
             out["policy"] = loop.run(cb, start_ns=start)
 
         threads = [threading.Thread(target=cerebellum, name="cerebellum", daemon=True)]
-        if with_policy and not self.inference_in_rt:
+        if placement == "thread":
             threads.append(threading.Thread(target=brain, name="brain", daemon=True))
-        for th in threads:
-            th.start()
-        for th in threads:
-            th.join(seconds + 30.0)
+        try:
+            for th in threads:
+                th.start()
+            for th in threads:
+                th.join(seconds + 30.0)
+        finally:
+            child = {}
+            if proc is not None:
+                try:
+                    conn.send("stop")
+                    if conn.poll(10.0):
+                        child = conn.recv()
+                finally:
+                    proc.join(5.0)
+                    if proc.is_alive():
+                        proc.kill()
+                    state_shm.close()
+                    target_shm.close()
         if "control" not in out:
             raise RuntimeError("the control thread did not finish")
-        return RealtimeResult(out["control"], out.get("policy"), self.inference_ns[:self.n_inference] / 1e3,
-                              self.ages_ns[:self.n_ages] / 1e3, out.get("report"), self.tcp_distance(),
-                              self.bridge.safe_entries)
+        if placement == "process":
+            policy_lat = np.asarray(child.get("latency_ns", []), dtype=float) / 1e3
+            inference = np.asarray(child.get("inference_ns", []), dtype=float) / 1e3
+            self.brain.policy_errors.extend(child.get("errors", []))
+        else:
+            pol = out.get("policy")
+            policy_lat = np.asarray(pol.latency_ns, dtype=float) / 1e3 if pol is not None else np.zeros(0)
+            inference = self.brain.inference_ns[:self.brain.n_inference] / 1e3
+        return RealtimeResult(placement, out["control"], policy_lat, inference, self.ages_ns[:self.n_ages] / 1e3,
+                              out.get("report"), self.tcp_distance(), self.bridge.safe_entries, targets_in[0])

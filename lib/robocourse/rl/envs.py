@@ -18,14 +18,11 @@ the servo seeing it).
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import asdict, dataclass
 
 import gymnasium as gym
 import numpy as np
 
-ARM_JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
-              "wrist_3_joint")
-UR5E_DEFAULT_POSE = (0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0)
+from .reach_config import ARM_JOINTS, UR5E_DEFAULT_POSE, ArmReachConfig  # noqa: F401  (re-exported)
 
 
 class CartPoleEnv(gym.Env):
@@ -75,41 +72,6 @@ class CartPoleEnv(gym.Env):
         obs = self._obs()
         fell = abs(obs[1]) > 0.2 or abs(obs[0]) > 2.4
         return obs, 0.0 if fell else 1.0, bool(fell), self._steps >= self.max_steps, {}
-
-
-@dataclass(frozen=True)
-class ArmReachConfig:
-    """The reach task's knobs (defaults: unitree deploy_mujoco's 500 Hz physics, 50 Hz policy)."""
-
-    timestep: float = 0.002          # s, physics (and PD) step
-    decimation: int = 10             # physics steps per policy step -> policy at 50 Hz
-    action_scale: float = 0.5        # rad per unit action
-    clip_actions: float = 1.0        # |action| limit before scaling
-    default_pose: tuple = UR5E_DEFAULT_POSE
-    dof_vel_scale: float = 0.05
-    obs_noise: float = 0.0           # uniform +- on the joint position (rad) and scaled velocity terms
-    actuator_delay: int = 0          # physics steps between a new target and the servo using it
-    episode_s: float = 1.0
-    target_range: float = 0.15       # m, targets uniform in a cube of +- this around the default TCP
-    success_distance: float = 0.05   # m, the threshold: mean final TCP distance over evaluation targets
-
-    def __post_init__(self):
-        if not (isinstance(self.decimation, int) and self.decimation >= 1):
-            raise ValueError(f"decimation={self.decimation!r} must be an int >= 1, e.g. 10 (500 Hz / 50 Hz)")
-        if not (isinstance(self.actuator_delay, int) and 0 <= self.actuator_delay <= 4 * self.decimation):
-            raise ValueError(f"actuator_delay={self.actuator_delay!r} physics steps must be an int in "
-                             f"[0, {4 * self.decimation}] (at most 4 policy steps)")
-        if len(self.default_pose) != 6:
-            raise ValueError(f"default_pose has {len(self.default_pose)} values; the UR5e arm has 6 joints")
-        if not (self.action_scale > 0 and self.obs_noise >= 0 and self.episode_s > 0 and self.target_range >= 0):
-            raise ValueError("action_scale and episode_s must be > 0, obs_noise and target_range >= 0")
-
-    @property
-    def policy_dt(self) -> float:
-        return self.timestep * self.decimation
-
-    def as_dict(self) -> dict:
-        return asdict(self)
 
 
 class ArmReachEnv(gym.Env):
@@ -194,6 +156,50 @@ class ArmReachEnv(gym.Env):
         dist = float(np.linalg.norm(self.tcp - self.target))
         reward = -dist - 0.01 * rate
         return self.observation(), reward, False, self._steps >= self.max_steps, {"distance": dist}
+
+
+HISTORY_LAYOUTS = ("time", "time_oldest_first", "term")
+
+
+class StackedObservation(gym.ObservationWrapper):
+    """The last ``frames`` observations of ``env`` as one vector, laid out by ``layout``.
+
+    ``"time"``: whole frames, newest first ``[o_t, o_t-1, ...]``; ``"time_oldest_first"``: whole
+    frames, oldest first; ``"term"``: each term's history together ``[x_t, x_t-1, ..., phi_t, ...]``
+    (rl_sar's ``observations_history_priority`` "time" / "term"). At reset the history is the first
+    observation repeated. A policy trained on one layout and fed another gets the same numbers in
+    other places, and nothing raises.
+    """
+
+    def __init__(self, env, frames: int = 3, layout: str = "time"):
+        super().__init__(env)
+        if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
+            raise ValueError(f"frames={frames!r} must be an int >= 1, e.g. 3")
+        if layout not in HISTORY_LAYOUTS:
+            raise ValueError(f"layout={layout!r} must be one of {', '.join(HISTORY_LAYOUTS)}")
+        self.frames, self.layout = frames, layout
+        n = env.observation_space.shape[0]
+        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (n * frames,), np.float64)
+        self._hist: deque = deque(maxlen=frames)
+
+    def reset(self, **kwargs):
+        obs, info = self.env.reset(**kwargs)
+        self._hist.clear()
+        for _ in range(self.frames):
+            self._hist.append(np.asarray(obs, dtype=float))
+        return self._stack(), info
+
+    def observation(self, observation):
+        self._hist.append(np.asarray(observation, dtype=float))
+        return self._stack()
+
+    def _stack(self) -> np.ndarray:
+        newest_first = np.array(list(self._hist)[::-1])          # frames x terms
+        if self.layout == "time":
+            return newest_first.reshape(-1)
+        if self.layout == "time_oldest_first":
+            return newest_first[::-1].reshape(-1)
+        return newest_first.T.reshape(-1)
 
 
 def make_env(name: str, **kwargs):

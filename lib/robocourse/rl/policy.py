@@ -172,3 +172,41 @@ class MLPPolicy:
             layers = [(f[f"W{i}"], f[f"b{i}"]) for i in range(n)]
             norm = Normalizer(f["norm_mean"], f["norm_std"], float(f["norm_eps"])) if "norm_mean" in f.files else None
         return cls(layers, norm, info["activation"], info.get("meta", {}))
+
+
+def widened(policy: MLPPolicy, hidden=(1024, 1024), seed: int = 0) -> MLPPolicy:
+    """The same linear policy computed by a ReLU MLP with ``hidden`` layers: same outputs, a bigger bill.
+
+    For measuring what inference *cost* does to a deployment without training a bigger network:
+    ``relu(z) - relu(-z) = z`` carries the linear policy's ``z = W x + b`` through every hidden
+    layer in 2 x act_size units (identity blocks); the other units get random weights, are
+    computed like any network's and never reach the output. The outputs equal the original's
+    up to float rounding; the cost is that of an MLP of these sizes (legged robots' actors are
+    512-256-128, rsl_rl's defaults).
+    """
+    if len(policy.layers) != 1:
+        raise ValueError(f"widened() takes a linear policy (one layer); this one has {len(policy.layers)}")
+    (w, b), = policy.layers
+    m, n_in = w.shape
+    sizes = [int(h) for h in hidden]
+    if not sizes or min(sizes) < 2 * m:
+        raise ValueError(f"hidden={hidden!r}: every hidden layer needs at least {2 * m} units (2 x the actions)")
+    rng = np.random.default_rng(seed)
+    layers = []
+    prev = n_in
+    for k, h in enumerate(sizes):
+        s = 1.0 / np.sqrt(prev)
+        wk, bk = rng.uniform(-s, s, (h, prev)), rng.uniform(-s, s, h)
+        wk[:2 * m] = 0.0
+        bk[:2 * m] = 0.0
+        if k == 0:
+            wk[:m], bk[:m] = w, b
+            wk[m:2 * m], bk[m:2 * m] = -w, -b
+        else:
+            wk[:2 * m, :2 * m] = np.eye(2 * m)
+        layers.append((wk, bk))
+        prev = h
+    out = np.zeros((m, prev))
+    out[:, :m], out[:, m:2 * m] = np.eye(m), -np.eye(m)
+    layers.append((out, np.zeros(m)))
+    return MLPPolicy(layers, policy.normalizer, "relu", dict(policy.meta, widened_from=[n_in, m], hidden=sizes))

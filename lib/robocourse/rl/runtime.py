@@ -186,11 +186,73 @@ class TorchRuntime(PolicyRuntime):
             return self.model(self._tin).numpy()[0]
 
 
-def load_runtime(path, io_binding: bool = True) -> PolicyRuntime:
-    """By extension, as rl_sar chooses: ``.onnx`` -> OnnxRuntime, ``.npz`` -> NumpyRuntime."""
+class RecordingRuntime(PolicyRuntime):
+    """Another runtime, recording every call: which process and thread ran it, and when.
+
+    For answering "where does my policy run?" (and for graders): one JSON line per call is
+    appended to ``call_log`` (``pid``, ``thread`` ident, ``thread_name``, ``t`` = CLOCK_MONOTONIC
+    seconds, ``n`` = the call's number). ``stall_after``/``stall_s`` inject a fault: call number
+    ``stall_after + 1`` first sleeps ``stall_s`` seconds (a brain that hangs, then recovers).
+    """
+
+    def __init__(self, inner: PolicyRuntime, call_log=None, stall_after: int | None = None, stall_s: float = 0.0):
+        super().__init__(inner.obs_size, inner.act_size)
+        if stall_after is not None and (isinstance(stall_after, bool) or not isinstance(stall_after, int)
+                                        or stall_after < 0):
+            raise ValueError(f"stall_after={stall_after!r} must be None or an int >= 0 (calls before the stall)")
+        if not (isinstance(stall_s, (int, float)) and 0 <= stall_s <= 60):
+            raise ValueError(f"stall_s={stall_s!r} must be seconds in [0, 60]")
+        self.inner, self.name = inner, inner.name
+        self.path = getattr(inner, "path", None)
+        self.call_log = None if call_log is None else Path(call_log)
+        self.stall_after, self.stall_s = stall_after, float(stall_s)
+
+    def _run(self) -> np.ndarray:
+        import json
+        import os
+        import threading
+        import time
+
+        if self.stall_after is not None and self.calls == self.stall_after + 1 and self.stall_s > 0:
+            time.sleep(self.stall_s)
+        if self.call_log is not None:
+            th = threading.current_thread()
+            line = json.dumps({"pid": os.getpid(), "thread": threading.get_ident(), "thread_name": th.name,
+                               "t": time.monotonic(), "n": self.calls}) + "\n"
+            fd = os.open(self.call_log, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+            try:
+                os.write(fd, line.encode())              # one write per line: lines from processes never mix
+            finally:
+                os.close(fd)
+        return self.inner(self._in[0])
+
+
+def read_call_log(path) -> list[dict]:
+    """The records a :class:`RecordingRuntime` appended to ``path`` (empty if there are none)."""
+    import json
+
+    path = Path(path)
+    if not path.exists():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def load_runtime(path, io_binding: bool = True, call_log=None, stall_after: int | None = None,
+                 stall_s: float = 0.0) -> PolicyRuntime:
+    """By extension, as rl_sar chooses: ``.onnx`` -> OnnxRuntime, ``.npz`` -> NumpyRuntime.
+
+    ``call_log`` (and ``stall_after``/``stall_s``) wrap it in a :class:`RecordingRuntime`. Every
+    argument is plain data, so a process can be told which policy to load with a JSON dict:
+    ``load_runtime(**spec["policy"])`` in the process that runs it.
+    """
     path = Path(path)
     if path.suffix == ".onnx":
-        return OnnxRuntime(path, io_binding=io_binding)
-    if path.suffix == ".npz":
-        return NumpyRuntime(MLPPolicy.load(path))
-    raise ValueError(f"{path.name}: unknown policy file type {path.suffix!r}; use .onnx or .npz")
+        rt = OnnxRuntime(path, io_binding=io_binding)
+    elif path.suffix == ".npz":
+        rt = NumpyRuntime(MLPPolicy.load(path))
+        rt.path = path
+    else:
+        raise ValueError(f"{path.name}: unknown policy file type {path.suffix!r}; use .onnx or .npz")
+    if call_log is not None or stall_after is not None:
+        return RecordingRuntime(rt, call_log, stall_after, stall_s)
+    return rt
