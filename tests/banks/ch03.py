@@ -109,7 +109,8 @@ class DriveNode(Node):
 ''', "")],
                score={"/wheel_speeds = [v - w*b/2, v + w*b/2] per command, b from the wheel_base parameter": 1.0,
                       "/odom at the publish_rate parameter": 0.75,
-                      "/odom header: the node clock's stamp, frame 'odom', child 'base_link'": 0.5},
+                      "/odom header: the node clock's stamp, frame 'odom', child 'base_link'": 0.5,
+                      "/odom twist: the current command": 0.5},
                property="NaN or inf commands ignored", says="ignore such a command"),
         Answer("a 50 Hz timer", replace=[('1.0 / self.get_parameter("publish_rate").value', "1.0 / 50.0")],
                score=3.25, property="/odom at the publish_rate parameter", says="default 50 Hz"),
@@ -392,15 +393,15 @@ def quiz_answers():
                 "camera images", "take one snapshot and return it", "map the whole room", "battery voltage",
                 "reset the odometry to zero", "follow a 20-waypoint path", "emergency stop button state"]
     return {f: "topic" for f in features}
-''', score=0.8, property="a request with one quick answer is a service", says="reconsider"),
+''', score=1.0, property="a request with one quick answer is a service", says="reconsider"),
         Answer("services and actions swapped", replace=[('"service"', '"SWAP"'), ('"action"', '"service"'),
                                                         ('"SWAP"', '"action"')],
-               score=0.8, property="a long task with feedback is an action", says="reconsider"),
+               score=1.0, property="a long task with feedback is an action", says="reconsider"),
         Answer("the e-stop as a service", replace=[('"emergency stop button state": "topic"',
                                                     '"emergency stop button state": "service"')],
-               score=1.8, property="a state everyone must see is a topic", says="emergency stop button state"),
+               score=2.25, property="a state everyone must see is a topic", says="emergency stop button state"),
         Answer("a misspelt feature", replace=[('"battery voltage": "topic"', '"battery level": "topic"')],
-               score=1.8, property="every feature answered, names as written", says="battery voltage"),
+               score=2.25, property="every feature answered, names as written", says="battery voltage"),
     ])
 
 EXERCISES = [WATCHDOG, DRIVE, LED, NAV, TELEOP, LAUNCH, QUIZ]

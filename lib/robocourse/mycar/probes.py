@@ -254,7 +254,7 @@ def nav_probe(inputs, NavigationServer):
         # `ros2 param set /navigation_server timeout ...`, then the driver dies: no /odom, the car cannot move
         timeout_set = call(lambda: server.set_parameters([Parameter("timeout", value=inputs["timeout"])])[0].successful)
         ex.remove_node(driver)
-        send("abort", goal(*inputs["far"]), limit=inputs["timeout"] + 5.0)
+        send("abort", goal(*inputs["lost"]), limit=inputs["timeout"] + 5.0)
         return plain({"built": True, "ready": True, "runs": runs, "timeout_set": timeout_set,
                       "logs": _logs(ctx, skip=("grader_client", "grader_driver")), "incompatible": _incompatible(ctx)})
     finally:
@@ -289,9 +289,11 @@ def teleop_probe(inputs, TeleopNode):
             if action == "spin":
                 ex.spin_for(arg)
             else:
-                t = _now(peer)
-                events.append({"t": t, "key": arg, **call(node.press, arg)})
+                ex.spin_for(0.0)                    # deliver everything due now (a timer tick at this instant)
+                t, before = _now(peer), len(got)
+                record = call(node.press, arg)
                 ex.spin_for(0.0)                    # deliver what press() published, at the press's time
+                events.append({"t": t, "key": arg, "sent": [m[1:] for m in got[before:before + 5]], **record})
         name = node.get_name()
         return plain({"built": True, "name": name, "messages": got[:5000], "events": events,
                       "incompatible": _incompatible(ctx), "end": _now(peer)})
