@@ -77,7 +77,6 @@ def test_an_integer_for_a_double_is_refused_with_the_fix():
 PARAMS = """
 /**:
   ros__parameters:
-    use_sim_time: true
     shared: 1.0
 driver_node:
   ros__parameters:

@@ -103,12 +103,6 @@ KNOWN_VIOLATIONS: dict[str, list[str]] = {
     'solutions/02_pendulum_exercises.ipynb': [
         '- `imu`: 1 kHz samples consumed by a balance controller;',
     ],
-    'solutions/03_mycar_exercises.ipynb': [
-        '- declares the parameters `wheel_base` (float, default 0.15 m) and `publish_rate` (float, default 50.0 Hz);',
-        'The grader publishes three random arcs at 10 Hz with a random `wheel_base` and `publish_rate`, one NaN command, then stops, and compares every `/wheel_speeds` message and the `/odom` path with the integrated commands.',
-        '- **execute** (an `async def`): every 0.05 s (`await self.sleep_async(0.05)`) read the latest odometry; if a cancel was requested, stop the car (a zero Twist), call `goal_handle.canceled()` and return a result with `success=False`; publish `percent_complete` feedback (0 at the start, 100 at the goal); once within 5 cm of the goal *position* (heading does not matter here) stop, `succeed()` and return `success=True`; otherwise turn towards the goal and drive when roughly facing it.',
-        'The grader runs the library\'s driver node on a kinematic motor driver beside your server and sends a reachable goal, a goal in `"map"`, a NaN goal and a far goal it cancels after 1 s.',
-    ],
     'solutions/04_ros2_control_exercises.ipynb': [
         '- the controller manager at **200 Hz**;',
         '- `arm_controller`, a `joint_trajectory_controller/JointTrajectoryController` on `joint1`, `joint2` commanding `position` and reading `position` and `velocity`, with `constraints`: `goal_time` 1.0 s and a `goal` tolerance of 0.01 rad for each joint;',

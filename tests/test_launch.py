@@ -47,7 +47,7 @@ def test_parameters_apply_in_order_and_a_substitution_is_read_as_yaml(tmp_path):
 
 def test_arguments_defaults_choices_and_required():
     desc = LaunchDescription([
-        DeclareLaunchArgument("use_sim", default_value="true", choices=["true", "false"]),
+        DeclareLaunchArgument("use_sim", choices=["true", "false"], default_value="true"),
         DeclareLaunchArgument("name", default_value=["led_", LaunchConfiguration("use_sim")]),
         led(name=LaunchConfiguration("name")),
     ])

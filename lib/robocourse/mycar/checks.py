@@ -87,18 +87,13 @@ register("ch03.watchdog", uses=("Watchdog",), probe=probes.dog_probe, inputs=_do
 
 # ================================================================== ch03.quiz
 
-QUIZ = {
-    "wheel encoder ticks at 100 Hz": "topic",
-    "set the maximum speed limit": "service",
-    "drive to the charging dock": "action",
-    "camera images": "topic",
-    "take one snapshot and return it": "service",
-    "map the whole room": "action",
-    "battery voltage": "topic",
-    "reset the odometry to zero": "service",
-    "follow a 20-waypoint path": "action",
-    "emergency stop button state": "topic",
+#: the key, by kind (features as the exercise lists them)
+_KINDS = {
+    "topic": ("wheel encoder ticks at 100 Hz", "camera images", "battery voltage", "emergency stop button state"),
+    "service": ("set the maximum speed limit", "take one snapshot and return it", "reset the odometry to zero"),
+    "action": ("drive to the charging dock", "map the whole room", "follow a 20-waypoint path"),
 }
+QUIZ = {feature: kind for kind, features in _KINDS.items() for feature in features}
 QUIZ_QUESTIONS = ("a stream whoever listens reads (topic)", "one request with one quick, definite answer (service)",
                   "a long task with feedback that must be cancellable (action)")
 
@@ -124,7 +119,10 @@ def _quiz_item(feature):
 
 register("ch03.quiz", uses=("quiz_answers",), probe=probes.quiz_probe, time_limit=5,
          schema=Dict(answers=OneOf(Map(Str(max_len=40), max_items=50), Null()), given=Str(max_len=40)),
-         subtests=[SubTest(feature, 0.25, _quiz_item(feature)) for feature in QUIZ])
+         subtests=[SubTest(feature, 0.25, _quiz_item(feature)) for feature in (
+             "wheel encoder ticks at 100 Hz", "set the maximum speed limit", "drive to the charging dock", "camera images",
+             "take one snapshot and return it", "map the whole room", "battery voltage", "reset the odometry to zero",
+             "follow a 20-waypoint path", "emergency stop button state")])
 
 
 # ================================================================== the nodes: shared pieces
