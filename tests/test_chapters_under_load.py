@@ -42,9 +42,9 @@ CHAPTERS = sorted(p.relative_to(ROOT).as_posix() for p in ROOT.glob("chapters/*.
 CELL_TIMEOUT_S = 240
 KNOWN_LOAD_FAILURES = {
     "chapters/05_hardware_drivers.ipynb":
-        "pylibfranka aborts with 'Motion aborted by reflex! [communication_constraints_violation]' when two busy "
-        "processes share the machine (the simulated FR3 misses libfranka's 1 kHz deadlines); owners: ur/franka "
-        "helpers (issue 25, chapter 5)",
+        "under the load it failed 1 of 3 runs here with pylibfranka's 'Motion aborted by reflex! "
+        "[communication_constraints_violation]' (the simulated FR3 missed libfranka's 1 kHz deadlines); a flaky "
+        "chapter cannot gate CI; owners: the ur/franka helpers (issue 25, chapter 5)",
 }
 
 

@@ -153,3 +153,19 @@ def test_ros2_control_verbs_wait_on_the_managers_executor_when_a_thread_spins_it
         stop.set_result(True)
         cm.executor._wake()
         th.join(10)
+
+
+def test_a_quiet_log_shows_only_the_lines_asked_for(capsys, monkeypatch):
+    from robocourse.bus.logging import LoggingSeverity
+
+    monkeypatch.setenv("RCUTILS_LOGGING_USE_STDOUT", "1")
+    monkeypatch.setenv("RCUTILS_COLORIZED_OUTPUT", "0")
+    log = LogSink(log_to_stderr=False)
+    cm = bringup("rrbot", log=log, spawn=["joint_state_broadcaster"])
+    assert capsys.readouterr().out.count("[INFO]") == 0          # nothing printed while bringing up
+    mark = log.mark()
+    assert cm.switch_controller(["no_such"], []).name == "ERROR"
+    assert log.show(mark, LoggingSeverity.WARN) >= 1
+    out = capsys.readouterr().out
+    assert "[ERROR]" in out and "no_such" in out and "[INFO]" not in out
+    assert log.show(mark, contains="nothing like this") == 0 and capsys.readouterr().out == ""

@@ -27,6 +27,9 @@ from robocourse.drivers.ur_box import read_stats  # noqa: E402
 pytestmark = [pytest.mark.timeout(90), pytest.mark.slow]
 HOME = [0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0]
 
+# the box streams RTDE at 500 Hz and stops on a keepalive lapse: these run alone (tests/conftest.py)
+pytestmark = pytest.mark.serial
+
 
 @pytest.fixture(autouse=True)
 def c_level_bound():

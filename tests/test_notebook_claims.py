@@ -66,9 +66,10 @@ def test_equal_when_every_value_is_the_same():
 def test_limit_within_above_and_mixed():
     within = claim("max", [30e3, 40e3, 20e3], unit="us", scale=1e-3, limit=50e3, limit_name="the 5 % budget")
     assert within.verdict == "within" and "**within the 5 % budget** (50.0 us) in every round" in within.text
-    above = claim("max", 1.2e6, unit="us", scale=1e-3, limit=50e3, limit_name="the budget", each="5000 iterations")
+    above = claim("max", 1.2e6, unit="us", scale=1e-3, limit=50e3, limit_name="the budget",
+                  each="one run of 5000 iterations")
     assert above.verdict == "above"
-    assert above.text == "**max** (one run, 5000 iterations): 1200.0 us; **above the budget** (50.0 us)."
+    assert above.text == "**max** (one run of 5000 iterations): 1200.0 us; **above the budget** (50.0 us)."
     mixed = claim("max", [60e3, 40e3, 70e3], unit="us", scale=1e-3, limit=50e3)
     assert mixed.verdict == "mixed" and "above the limit (50.0 us) in 2 of 3 rounds, within it in the rest" in mixed.text
     assert claim("max", [50.0], limit=50.0).verdict == "within"   # at the limit is within it

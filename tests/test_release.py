@@ -81,6 +81,13 @@ SHARED_LINES = {
         "tests/test_control_pid.py",
     },
     "arm_controller:": {"chapters/04_ros2_control.ipynb", "tests/test_control_parameters.py"},
+    # chapter 4's <ros2_control> exercise: the element's head and plugin line, as every RRBot / mock URDF has
+    # them (the interfaces, limits, initial values and the sensor are the exercise's own)
+    '<ros2_control name="RRBot" type="system">': {"lib/robocourse/sim/robots/rrbot.urdf",
+                                                  "tests/test_control_hardware.py"},
+    "<plugin>mock_components/GenericSystem</plugin>": {
+        "lib/robocourse/control/checks.py", "lib/robocourse/control/probes.py", "lib/robocourse/control/hardware/info.py",
+        "lib/robocourse/sim/robots/rrbot.urdf", "lib/robocourse/sim/robots/ur5e.urdf", "tests/test_control_manager.py"},
     "wrist_controller: {ros__parameters: {joints: [joint3]}}": {"chapters/04_ros2_control.ipynb"},
 }
 

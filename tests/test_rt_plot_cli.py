@@ -49,6 +49,17 @@ def test_cli_rttest_sleeps_like_rttest_by_default_and_says_so(capsys):
     assert lines[i - 1] == "Wait strategy: sleep (clock_nanosleep to each absolute deadline, as rttest does)"
 
 
+def test_cli_rttest_states_the_heap_prefault_once(capsys):
+    # issue 25: a line printed before the prefault ("its rule faults in all of it") could contradict
+    # the report of what the prefault did; now the report is the one statement, the cap a note under it
+    assert main(["rttest", "-i", "20", "-u", "1ms"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    heap = [i for i, line in enumerate(lines) if "heap" in line and "prefault" in line]
+    assert len(heap) == 1 and lines[heap[0]][3:].startswith("heap prefault")
+    assert lines[heap[0] + 1].strip() == ("cap: robocourse's default, 64 MiB (rttest's default cap is 8 GiB: "
+                                          "pass -d 8gb for rttest's)")
+
+
 def test_cli_rttest_hybrid_is_named_in_the_block(capsys):
     assert main(["rttest", "-i", "20", "-u", "1ms", "-d", "1mb", "--wait", "hybrid", "--spin", "100us"]) == 0
     out = capsys.readouterr().out

@@ -1,4 +1,7 @@
-"""The ch00 checks: right answers pass on fresh inputs, the usual mistakes fail with a message naming them."""
+"""The ch00 checks in the student's kernel: right answers pass on fresh inputs, mistakes are listed.
+
+The plausible wrong answers, one per stated property, are the bank's (tests/banks/ch00.py).
+"""
 
 from __future__ import annotations
 
@@ -47,31 +50,18 @@ def test_right_answers_pass_on_fresh_inputs(seed):
     assert run("ch00.limits_conf", limits, seed=seed).points == 2
 
 
-@pytest.mark.parametrize("name, attempt, fragments", [
-    ("ch00.to_ns", lambda t: to_ns(t, bare="ns"), ["to_ns('500') returned 500, expected 500000", "microseconds"]),
-    ("ch00.to_ns", lambda t: to_ns(t, strict=False), ["to_ns('0') returned 0", "raise ValueError"]),
-    ("ch00.to_ns", lambda t: to_ns(t, scale=float), ["should return an int"]),
-    ("ch00.to_ns", lambda t: to_ns(t, scale=int), ["int() truncates"]),
-    ("ch00.budget", lambda p, fraction=0.05: p * fraction, ["latency_budget_ns(0) should raise ValueError"]),
-    ("ch00.budget", lambda p, fraction=0.05: round(abs(p) * fraction), ["latency_budget_ns(-1000000) should raise"]),
-    ("ch00.budget", lambda p, fraction=0.05: budget(p, 0.05), ["fraction=", "expected"]),
-    ("ch00.limits_conf", lambda u, rtprio=98, memlock_kb=-1: [f"{u} - rtprio {rtprio}", f"{u} - memlock {memlock_kb}"],
-     ["rtprio=99 should raise ValueError"]),
-    ("ch00.limits_conf", lambda u, rtprio=99, memlock_kb=-1: limits(u, min(rtprio, 98), memlock_kb)[:1],
-     ["should return a list of 2 lines"]),
-    ("ch00.limits_conf", lambda u, rtprio=98, memlock_kb=-1: [f"{u} rtprio {rtprio}", f"{u} memlock {memlock_kb}"]
-     if 1 <= rtprio <= 98 else limits(u, rtprio), ["'<user> - <item> <value>'"]),
-])
-def test_wrong_attempts_fail_with_their_reason(name, attempt, fragments):
-    r = run(name, attempt, seed=5)
-    assert not r.passed and r.points == 0
-    for fragment in fragments:
-        assert fragment in r.message, r.message
+def test_each_property_costs_only_its_sub_test():
+    """A bare number read as ns loses the units sub-test only; no validation loses the refusal only."""
+    r = run("ch00.to_ns", lambda t: to_ns(t, bare="ns"), seed=5)
+    assert r.points == 1.25 and "to_ns('500') returned 500, expected 500000" in r.message
+    r = run("ch00.to_ns", lambda t: to_ns(t, strict=False), seed=5)
+    assert r.points == 1.25 and "to_ns('0') returned 0" in r.message
 
 
 def test_all_failures_are_listed():
     """A to_ns with no validation and a ns default fails several inputs: each is named."""
     r = run("ch00.to_ns", lambda t: to_ns(t, bare="ns", strict=False), seed=3)
+    assert r.points == 0.5
     lines = r.message.splitlines()
     assert any("'500'" in m for m in lines) and any("'0'" in m for m in lines) and len(lines) >= 3
 

@@ -419,6 +419,41 @@ def test_gripper_closes_on_an_object_and_holds_it():
     assert np.mean(fz) == pytest.approx(-(TOOL_MASS + 0.1) * G, rel=0.01)  # tool + held object
 
 
+def _box_on_a_table(half=(0.015, 0.015, 0.025)):
+    tcp, _ = RobotSim("ur5e").link_pose("tool_center_point")
+    table_z = float(tcp[2] - 0.04)
+    sim = RobotSim("ur5e", wall=Wall(point=(tcp[0], tcp[1], table_z), normal=(0.0, 0.0, 1.0), half_size=(0.02, 0.2, 0.2)),
+                   grasp_object=GraspObject(position=(tcp[0], tcp[1], table_z + half[2]), half_size=half))
+    return sim, sim.model.body("object").id, np.array([tcp[0], tcp[1], table_z + half[2]])
+
+
+def test_a_box_on_a_table_has_its_centre_of_mass_at_its_centre_and_stays_at_rest():
+    sim, obj, start = _box_on_a_table()
+    np.testing.assert_allclose(sim.data.xipos[obj], start, atol=1e-12)  # was 2x pos: the box hopped and spun
+    sim.step(1000)
+    assert np.abs(sim.data.xpos[obj] - start).max() < 1e-4  # settles < 0.1 mm into the table, no drift
+    assert np.linalg.norm(sim.data.qvel[-6:]) < 1e-3
+    assert sim.data.xquat[obj][0] == pytest.approx(1.0, abs=1e-6)  # not tilted
+    assert sim.touching("wall") == ["object"] and sim.touching("object") == ["wall"]
+    with pytest.raises(ValueError, match="no geom 'table'"):
+        sim.touching("table")
+
+
+def test_fingers_closing_on_a_box_on_a_table_stop_at_its_width_and_do_not_tip_it():
+    sim, obj, start = _box_on_a_table()
+    finger = sim.joint_names.index("finger_joint")
+    sim.commands[:] = sim.positions
+    for _ in range(400):  # close at the servo's 0.2 m/s from 40 mm: ~0.13 s, then squeeze
+        sim.commands[finger] = max(0.0, sim.commands[finger] - 0.0001)
+        sim.step()
+    sim.step(600)
+    assert sim.positions[finger] == pytest.approx(0.015, abs=5e-4)  # the box is 30 mm wide: 15 mm per finger
+    assert sim.mimic_positions[0] == pytest.approx(0.015, abs=5e-4)
+    assert sim.efforts[finger] == pytest.approx(-20.0)  # squeezing at the effort limit
+    tilt = 2 * np.degrees(np.arccos(min(1.0, abs(sim.data.xquat[obj][0]))))
+    assert tilt < 1.0 and np.abs(sim.data.xpos[obj] - start).max() < 1e-3
+
+
 def test_viz_draws_both_robots_into_a_recording():
     from test_viz import decode_commands
 

@@ -4,8 +4,9 @@
 lock memory and prefault (-m stack, -d heap), set the policy and priority (-s, -t), spin
 -i iterations at period -u, print rttest's statistics block, write -f. Missing privileges
 print the seed's messages with the fix, and the run carries on. It sleeps to each deadline as
-rttest does; ``--wait hybrid`` (sleep, then spin the last ``--spin``) or ``--wait spin`` must be
-asked for, and the statistics block names the strategy that ran.
+rttest does; ``--wait hybrid`` (sleep, then spin the last ``--spin``), ``--wait adaptive`` (spin
+only the window this machine's sleeps need, learned as it runs, at most ``--spin``) or
+``--wait spin`` must be asked for, and the statistics block names the strategy that ran.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ def register(sub):
         description="Run an instrumented empty loop and print rttest's statistics. Options as rttest: "
                     "-i ITERATIONS (<=0: until Ctrl-C), -u PERIOD (ns/us/ms/s, bare = us), -t PRIORITY, "
                     "-s fifo|rr, -m STACK and -d HEAP prefault sizes (gb/mb/kb/b, bare = MB), -f FILE; "
-                    "robocourse adds --wait sleep|hybrid|spin (default sleep, as rttest), --spin DURATION, --cpu N.",
+                    "robocourse adds --wait sleep|hybrid|adaptive|spin (default sleep, as rttest), --spin DURATION, --cpu N.",
         prefix_chars="+", add_help=False)
     p.add_argument("rttest_args", nargs=argparse.REMAINDER)
     p.set_defaults(func=run_rttest)
@@ -52,23 +53,14 @@ def _heap_cap(requested: int) -> tuple[int, str]:
 def run_rttest(args) -> int:
     from robocourse.rt import settings
     from robocourse.rt.loop import PeriodicLoop, _faults
-    from robocourse.rt.options import USAGE, RttestUsageError, parse_rttest_args
+    from robocourse.rt.options import RttestUsageError, parse_rttest_args
     from robocourse.rt.wait import strategy
 
     argv = list(args.rttest_args)
     if any(a in ("-h", "--help") for a in argv):
-        print(USAGE)
-        print("  -i N      iterations (default 1000; <= 0 runs until Ctrl-C and keeps no samples file)")
-        print("  -u T      period, ns/us/ms/s (bare number = us; default 1ms)")
-        print("  -t P      real-time priority 1..98 (default 80)")
-        print("  -s POL    fifo or rr (default rr)")
-        print("  -m S      stack prefault, gb/mb/kb/b (bare number = MB; default 1mb)")
-        print("  -d S      heap prefault cap, same units (rttest: 8gb; robocourse uses 64mb unless -d is given;")
-        print("            never more than a quarter of MemAvailable)")
-        print("  -f FILE   write rttest's results file")
-        print("  --wait W  sleep (default: rttest's clock_nanosleep), hybrid (sleep, then spin the last --spin)")
-        print("            or spin (busy-wait: a whole core); --spin T spin window of hybrid (default 200us)")
-        print("  --cpu N   pin the loop to CPU N")
+        from robocourse.rt.options import help_text
+
+        print(help_text("robocourse rttest"))
         return 0
     try:
         opts = parse_rttest_args(argv)
@@ -77,27 +69,33 @@ def run_rttest(args) -> int:
         return 2
     if opts.cpu is not None:
         print(settings.set_affinity(opts.cpu))
-    if any(a.startswith("-d") for a in argv):
+    explicit_cap = any(a.startswith("-d") for a in argv)
+    if explicit_cap:
         heap, note = _heap_cap(opts.heap_size)
     else:
-        heap, note = min(opts.heap_size, DEFAULT_HEAP), (
-            f"heap prefault: {DEFAULT_HEAP >> 20} MiB. rttest's default cap is 8 GiB, and after mlockall "
-            "its rule faults in (and locks) all of it; pass -d 8gb to do exactly that")
+        heap, note = min(opts.heap_size, DEFAULT_HEAP), ""
     if note:
         print(note)
     for r in settings.lock_and_prefault(opts.stack_size, heap, until_no_faults=True):
         print(r)
+        if r.name == "heap prefault" and not explicit_cap:
+            # one statement about the heap: what happened is the line above; this only names the cap
+            print(f"{'':20}cap: robocourse's default, {DEFAULT_HEAP >> 20} MiB (rttest's default cap is 8 GiB: "
+                  "pass -d 8gb for rttest's)")
     print(settings.gc_freeze())
     print(settings.set_scheduling(opts.policy, opts.priority))
     minflt, majflt = _faults()
     print(f"Initial major pagefaults: {majflt}")
     print(f"Initial minor pagefaults: {minflt}")
-    loop = PeriodicLoop(opts.period_ns, opts.iterations, wait=strategy(opts.wait, opts.spin_ns))
+    wait = strategy(opts.wait, opts.spin_ns)
+    loop = PeriodicLoop(opts.period_ns, opts.iterations, wait=wait)
     result = loop.run()
     settings.reset_scheduling()
     settings.unlock_memory()
     print()
     print(result.stats().format(name=opts.filename))
+    if hasattr(wait, "window_ns"):
+        print(wait.describe(opts.period_ns))   # what the adaptive wait learned, and its cost
     if opts.filename:
         if opts.iterations <= 0:
             print("No sample buffer was saved, not writing results", file=sys.stderr)

@@ -9,6 +9,8 @@ FINALIZED (unrecoverable). ``impl`` is the object with the on_* callbacks.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from .hardware.types import (
     ACTIVE,
     FINALIZED,
@@ -50,13 +52,28 @@ class LifecycleCallbacks:
         return CallbackReturn.SUCCESS
 
 
+@dataclass(frozen=True)
+class Transition:
+    """One callback the state machine ran: from ``start`` via ``callback`` (its ``result``) to ``goal``."""
+
+    start: str
+    callback: str
+    result: str
+    goal: str
+
+
 class Lifecycle:
-    """Drives ``impl`` through UNCONFIGURED / INACTIVE / ACTIVE / FINALIZED."""
+    """Drives ``impl`` through UNCONFIGURED / INACTIVE / ACTIVE / FINALIZED.
+
+    ``history`` lists every callback run, in order (:class:`Transition`): what a lifecycle
+    node's ``transition_event`` topic reports, kept so a notebook can draw what happened.
+    """
 
     def __init__(self, impl):
         self.impl = impl
         self.state: State = UNKNOWN
         self.last_exception: BaseException | None = None
+        self.history: list[Transition] = []
 
     def _set(self, state: State) -> State:
         self.state = state
@@ -70,22 +87,28 @@ class Lifecycle:
             self.last_exception = exc
             return CallbackReturn.ERROR
 
+    def _record(self, start: State, callback: str, result: CallbackReturn) -> None:
+        self.history.append(Transition(start.label, callback, result.name, self.state.label))
+
     def initialize(self, *args, method: str = "on_init") -> State:
         """``impl.<method>(*args)`` (on_init, or a controller's init): SUCCESS -> UNCONFIGURED, else FINALIZED."""
         if self.state is not UNKNOWN:
             return self.state
-        ok = self._call(method, *args) is CallbackReturn.SUCCESS
-        return self._set(UNCONFIGURED if ok else FINALIZED)
+        result = self._call(method, *args)
+        self._set(UNCONFIGURED if result is CallbackReturn.SUCCESS else FINALIZED)
+        self._record(UNKNOWN, method, result)
+        return self.state
 
     def _transition(self, frm: State, callback: str, to: State) -> State:
         if self.state != frm:
             return self.state
         result = self._call(callback, self.state)
         if result is CallbackReturn.SUCCESS:
-            return self._set(to)
-        if result is CallbackReturn.FAILURE:
-            return self.state
-        return self.error()
+            self._set(to)
+        self._record(frm, callback, result)
+        if result is CallbackReturn.ERROR:
+            return self.error()
+        return self.state
 
     def configure(self) -> State:
         return self._transition(UNCONFIGURED, "on_configure", INACTIVE)
@@ -102,19 +125,24 @@ class Lifecycle:
     def shutdown(self) -> State:
         if self.state in (UNKNOWN, FINALIZED):
             return self.state
+        start = self.state
         result = self._call("on_shutdown", self.state)
         if result is CallbackReturn.SUCCESS:
-            return self._set(FINALIZED)
-        if result is CallbackReturn.FAILURE:
-            return self.state
-        return self.error()
+            self._set(FINALIZED)
+        self._record(start, "on_shutdown", result)
+        if result is CallbackReturn.ERROR:
+            return self.error()
+        return self.state
 
     def error(self) -> State:
         """on_error: SUCCESS -> UNCONFIGURED, FAILURE/ERROR -> FINALIZED (unrecoverable)."""
         if self.state in (UNKNOWN, FINALIZED):
             return self.state
+        start = self.state
         result = self._call("on_error", self.state)
-        return self._set(UNCONFIGURED if result is CallbackReturn.SUCCESS else FINALIZED)
+        self._set(UNCONFIGURED if result is CallbackReturn.SUCCESS else FINALIZED)
+        self._record(start, "on_error", result)
+        return self.state
 
 
-__all__ = ["Lifecycle", "LifecycleCallbacks", "as_callback_return"]
+__all__ = ["Lifecycle", "LifecycleCallbacks", "Transition", "as_callback_return"]

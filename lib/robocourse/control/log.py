@@ -9,7 +9,13 @@ shared by the manager, the resource manager, components and controllers, so
 
 from __future__ import annotations
 
-from robocourse.bus.logging import LoggingSeverity, LogRecord, RcutilsLogger
+from robocourse.bus.logging import (
+    LoggingSeverity,
+    LogRecord,
+    RcutilsLogger,
+    console_line,
+    console_stream,
+)
 
 
 class LogSink:
@@ -34,6 +40,24 @@ class LogSink:
     def count(self, text: str) -> int:
         """How many records contain ``text``."""
         return sum(text in r.msg for r in self.log_records)
+
+    def mark(self) -> int:
+        """Where the log is now: pass it to :meth:`show` to print only what came after."""
+        return len(self.log_records)
+
+    def show(self, since: int = 0, min_severity: LoggingSeverity = LoggingSeverity.INFO, contains: str = "") -> int:
+        """Print the records after ``since`` (a :meth:`mark`) at ``min_severity`` or above whose message
+        contains ``contains``, as the console would have; return how many were printed.
+
+        A quiet sink (``log_to_stderr=False``) plus ``show`` is how a notebook shows the lines that
+        matter to a cell instead of every INFO line of a bring-up."""
+        stream = console_stream()
+        shown = 0
+        for rec in self.log_records[since:]:
+            if rec.severity >= min_severity and contains in rec.msg:
+                print(console_line(rec, stream), file=stream)
+                shown += 1
+        return shown
 
 
 __all__ = ["LogSink", "LoggingSeverity"]

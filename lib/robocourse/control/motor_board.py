@@ -31,7 +31,7 @@ class MotorBoard:
     """``MotorBoard(positions=[0.8, -0.5])``: len(positions) motors, at rest at those angles (rad).
 
     ``read(time, positions_out, velocities_out) -> bool`` advances the motors to ``time`` (s) and
-    fills the two arrays (no allocation); ``write(targets) -> bool`` sets the targets (rad) and
+    fills the two arrays (the board allocates no array per call: what a driver measures is its own); ``write(targets) -> bool`` sets the targets (rad) and
     refuses (False, nothing changed) a frame of the wrong size or with a non-finite value.
     ``unplug()`` / ``plug_in()`` inject a cable fault: while unplugged both calls return False.
     """
@@ -51,6 +51,7 @@ class MotorBoard:
         self.max_velocity = float(max_velocity)
         self.time_constant = float(time_constant)
         self.time: float | None = None
+        self._v = np.zeros(self.n)            # scratch for _advance: the board itself allocates nothing per cycle
         self.connected = True
         self.frames_refused = 0
         self.targets_received = 0
@@ -67,9 +68,13 @@ class MotorBoard:
             return
         while time - self.time > 1e-12:
             dt = min(_SUBSTEP, time - self.time)
-            v = np.clip((self.targets - self.positions) / self.time_constant, -self.max_velocity, self.max_velocity)
-            self.positions += v * dt
+            v = self._v
+            np.subtract(self.targets, self.positions, out=v)
+            np.divide(v, self.time_constant, out=v)
+            np.clip(v, -self.max_velocity, self.max_velocity, out=v)
             self.velocities[:] = v
+            np.multiply(v, dt, out=v)
+            np.add(self.positions, v, out=self.positions)
             self.time += dt
 
     def read(self, time: float, positions_out, velocities_out) -> bool:
@@ -167,7 +172,8 @@ class MotorBoardSystem(SystemInterface):
         return return_type.OK
 
     def write(self, time, period):
-        np.take(self.command_values, self.cmd_slots, out=self.cmd)
+        # mode="clip": np.take's default mode="raise" buffers `out` in a new array on every call
+        np.take(self.command_values, self.cmd_slots, out=self.cmd, mode="clip")
         return return_type.OK if self.board.write(self.cmd) else return_type.ERROR
 
 

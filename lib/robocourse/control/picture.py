@@ -122,3 +122,74 @@ def system_picture(cm) -> SystemPicture:
             + _text(CTRL_X, 24, "controllers (update order)", 13, "bold")
             + _text(HW_X, 24, "hardware components", 13, "bold"))
     return SystemPicture(head + "".join(parts) + "</svg>")
+
+
+# --- the lifecycle state machine, drawn from what a component went through ------------------------------------------
+
+_LC_W, _LC_H = 150, 44
+_LC_BOX = {"unknown": (20, 210, 110), "unconfigured": (200, 210, _LC_W), "inactive": (470, 210, _LC_W),
+           "active": (740, 210, _LC_W), "finalized": (470, 400, _LC_W)}
+#: every transition ros2_control drives (start, callback, goal): its arc (SVG path) and label (x, y, anchor)
+_LC_EDGES = {
+    ("unknown", "on_init", "unconfigured"): ("M130,232 L200,232", (150, 198, "middle")),
+    ("unknown", "on_init", "finalized"): ("M75,254 Q110,420 470,424", (150, 380, "start")),
+    ("unconfigured", "on_configure", "inactive"): ("M350,222 Q410,170 470,222", (410, 184, "middle")),
+    ("inactive", "on_cleanup", "unconfigured"): ("M470,242 Q410,294 350,242", (410, 290, "middle")),
+    ("inactive", "on_activate", "active"): ("M620,222 Q680,170 740,222", (680, 184, "middle")),
+    ("active", "on_deactivate", "inactive"): ("M740,242 Q680,294 620,242", (680, 290, "middle")),
+    ("inactive", "on_error", "unconfigured"): ("M500,210 Q410,110 320,210", (410, 136, "middle")),
+    ("active", "on_error", "unconfigured"): ("M770,210 Q530,20 260,210", (530, 80, "middle")),
+    ("unconfigured", "on_shutdown", "finalized"): ("M275,254 Q300,410 470,414", (300, 350, "start")),
+    ("inactive", "on_shutdown", "finalized"): ("M520,254 L520,400", (514, 340, "end")),
+    ("inactive", "on_error", "finalized"): ("M570,254 L570,400", (576, 340, "start")),
+    ("active", "on_shutdown", "finalized"): ("M790,254 Q780,400 620,410", (700, 380, "start")),
+    ("active", "on_error", "finalized"): ("M850,254 Q850,440 620,430", (790, 455, "start")),
+}
+
+
+def lifecycle_picture(history, title: str = "") -> SystemPicture:
+    """The managed-node state machine with the transitions ``history`` went through drawn bold.
+
+    ``history``: a :class:`~robocourse.control.lifecycle.Transition` list (``component.wrapper.history``,
+    or several concatenated). Every transition ros2_control drives is drawn (grey dashed when this
+    run never took it); a taken one is blue with the callback, its results and how often; a
+    callback that returned FAILURE (the state stays) is a red loop on its state. Counterpart: the
+    diagram of the ROS 2 design article "Managed nodes", restricted to the primary states
+    ros2_control uses.
+    """
+    from collections import Counter
+
+    taken = Counter((t.start, t.callback, t.goal, t.result) for t in history)
+    parts: list[str] = []
+    for (start, cb, goal), (path, (lx, ly, anchor)) in _LC_EDGES.items():
+        hits = {res: n for (s, c, g, res), n in taken.items() if (s, c, g) == (start, cb, goal)}
+        colour, width, dash = ("#1f5fbf", 2.4, "") if hits else ("#c8c8c8", 1.2, ' stroke-dasharray="5 4"')
+        parts.append(f'<path d="{path}" fill="none" stroke="{colour}" stroke-width="{width}"{dash} '
+                     f'marker-end="url(#{"lc_blue" if hits else "lc_grey"})"/>')
+        label = cb + ("" if not hits else " " + ", ".join(f"{r} x{n}" for r, n in sorted(hits.items())))
+        parts.append(_text(lx, ly, label, 11, "bold" if hits else "normal", anchor, "#1f5fbf" if hits else "#9a9a9a"))
+    loops = Counter((t.start, t.callback, t.result) for t in history if t.start == t.goal and t.callback != "on_error")
+    stacked: Counter = Counter()
+    for (state, cb, res), n in sorted(loops.items()):
+        x, y, w = _LC_BOX[state]
+        k = stacked[state]
+        stacked[state] += 1
+        cx = x + w - 40
+        parts.append(f'<path d="M{cx - 18},{y + _LC_H} C{cx - 28},{y + _LC_H + 40} {cx + 28},{y + _LC_H + 40} '
+                     f'{cx + 18},{y + _LC_H}" fill="none" stroke="#c0392b" stroke-width="2" marker-end="url(#lc_red)"/>')
+        parts.append(_text(cx, y + _LC_H + 50 + 14 * k, f"{cb} {res} x{n} (stays)", 11, "bold", "middle", "#c0392b"))
+    visited = {t.goal for t in history} | {t.start for t in history}
+    for state, (x, y, w) in _LC_BOX.items():
+        fill = STATE_FILL.get(state, "#ddd") if state in visited else "#f4f4f4"
+        parts.append(f'<rect x="{x}" y="{y}" width="{w}" height="{_LC_H}" rx="8" fill="{fill}" stroke="#555"/>')
+        parts.append(_text(x + w / 2, y + 27, state.upper(), 13, "bold", "middle"))
+    width, height = 920, 470
+    head = (f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" viewBox="0 0 {width} {height}">'
+            '<defs>' + "".join(
+                f'<marker id="lc_{n}" markerWidth="8" markerHeight="8" refX="7" refY="4" orient="auto">'
+                f'<path d="M0,0 L8,4 L0,8 z" fill="{c}"/></marker>'
+                for n, c in (("blue", "#1f5fbf"), ("grey", "#c8c8c8"), ("red", "#c0392b")))
+            + f'</defs><rect width="{width}" height="{height}" fill="white"/>'
+            + _text(20, 24, title or "lifecycle: transitions this run took (blue, with results and counts), "
+                                     "never taken (grey)", 13, "bold"))
+    return SystemPicture(head + "".join(parts) + "</svg>")

@@ -22,7 +22,9 @@ ADMITTANCE = "admittance_controller"
 
 @dataclass
 class WallPush:
-    """What a run measured: time (s), contact force on the table (N, +z = the arm pushing down), tip height (m)."""
+    """What a run measured, per cycle: time (s), contact force on the table (N, +z = the arm pushing
+    down), tool centre point height (m), the tool's tilt (deg between its axis and straight down),
+    and at the end which robot geoms touch the table."""
 
     t: np.ndarray
     force: np.ndarray
@@ -31,6 +33,8 @@ class WallPush:
     cm: object
     sim: object
     params: dict
+    tilt_deg: np.ndarray
+    touching: list
 
     @property
     def peak(self) -> float:
@@ -39,6 +43,21 @@ class WallPush:
     def steady(self, last_s: float = 0.5) -> float:
         """Mean force over the last ``last_s`` seconds."""
         return float(self.force[self.t >= self.t[-1] - last_s].mean())
+
+
+def joints_moving_tool(q0, offset, steps: int = 8) -> np.ndarray:
+    """UR5e joint positions that move the flange by ``offset`` (m, world) from ``q0`` keeping its
+    orientation: Newton steps on the flange position through the Jacobian (the admittance
+    controller's kinematics interface, ``convert_cartesian_deltas_to_joint_deltas``)."""
+    from robocourse.sim.robots import Kinematics
+
+    kin = Kinematics("ur5e")
+    q = np.array(q0, dtype=float)
+    target = kin.calculate_link_transform(q)[:3, 3] + np.asarray(offset, dtype=float)
+    for _ in range(steps):
+        q = q + kin.convert_cartesian_deltas_to_joint_deltas(
+            q, np.r_[target - kin.calculate_link_transform(q)[:3, 3], 0.0, 0.0, 0.0])
+    return q
 
 
 def wall_push_params(admittance: dict | None, gravity: tuple[float, list[float]] | None = None) -> dict:
@@ -71,7 +90,7 @@ def wall_push(admittance: dict | None = None, *, depth: float = 0.04, gap: float
     from robocourse.control.hardware.mujoco_system import MujocoSystem
     from robocourse.control.log import LogSink
     from robocourse.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
-    from robocourse.sim.robots import Kinematics, RobotSim, Wall, urdf_text
+    from robocourse.sim.robots import RobotSim, Wall, urdf_text
 
     free = RobotSim("ur5e")
     tip = free.link_pose("tool_center_point")[0]
@@ -89,14 +108,7 @@ def wall_push(admittance: dict | None = None, *, depth: float = 0.04, gap: float
             raise ValueError(f"{name} refused its parameters: {getattr(cm, 'last_error', '') or log.records[-1].msg}")
     if cm.switch_controller(names, [], STRICT) != return_type.OK:
         raise RuntimeError(cm.last_switch_message)
-    # joint goal: the flange straight down by gap + depth (Jacobian steps on the flange position)
-    kin = Kinematics("ur5e")
-    q0 = np.array(sim.positions[:6], dtype=float)
-    target = kin.calculate_link_transform(q0)[:3, 3] + np.array([0.0, 0.0, -(gap + depth)])
-    q = q0.copy()
-    for _ in range(8):
-        q = q + kin.convert_cartesian_deltas_to_joint_deltas(
-            q, np.r_[target - kin.calculate_link_transform(q)[:3, 3], 0.0, 0.0, 0.0])
+    q = joints_moving_tool(sim.positions[:6], (0.0, 0.0, -(gap + depth)))
     node = cm.context.create_node("commander")
     cm.executor.add_node(node)
     msg = JointTrajectory(joint_names=list(ARM))
@@ -105,16 +117,18 @@ def wall_push(admittance: dict | None = None, *, depth: float = 0.04, gap: float
     msg.points.append(point)
     node.create_publisher(JointTrajectory, f"/{JTC}/joint_trajectory", 10).publish(msg)
     n = int(round(seconds * cm.update_rate))
-    t, force, tip_z = np.zeros(n), np.zeros(n), np.zeros(n)
+    t, force, tip_z, tilt = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     t0 = cm.time
     for k in range(n):
         cm.step()
         t[k] = cm.time - t0
         force[k] = -sim.contact_force("wall")[2]          # what the arm exerts on the table, downwards
-        tip_z[k] = sim.link_pose("tool_center_point")[0][2]
+        where, rot = sim.link_pose("tool_center_point")
+        tip_z[k] = where[2]
+        tilt[k] = np.degrees(np.arccos(np.clip(-rot[2, 2], -1.0, 1.0)))   # tool z axis vs straight down
         if on_cycle is not None:
             on_cycle(cm, sim)
-    return WallPush(t, force, tip_z, table_z, cm, sim, params)
+    return WallPush(t, force, tip_z, table_z, cm, sim, params, tilt, sim.touching("wall"))
 
 
-__all__ = ["ARM", "WallPush", "wall_push", "wall_push_params"]
+__all__ = ["ARM", "WallPush", "joints_moving_tool", "wall_push", "wall_push_params"]

@@ -1,121 +1,122 @@
-"""Checks for chapter 5's EtherCAT exercises (solutions/05_hardware_drivers_exercises.ipynb), as probe + judge.
+"""Checks for chapter 5's EtherCAT exercises (solutions/05_hardware_drivers_exercises.ipynb): inputs,
+schemas, sub-tests. The judge side only (hidden from the grading sandbox); the probes are in
+:mod:`robocourse.ethercat.probes`.
 
 - ``ch05.fprd_frame``: an FPRD frame built by hand, byte for byte, for fresh station addresses,
-  registers, lengths and indexes; the judge decodes it with :func:`frames.decode_frame` and
-  compares every field with the reference's layout, then sends it through a simulated bus.
-- ``ch05.expected_wkc``: the working counter of datagrams over random bus layouts (some with a
-  cut cable); the judge builds each bus, brings it to OP with the SOEM-shaped master and sends
-  the datagrams, so the truth is what the simulated slaves count.
+  registers, lengths and indexes; each layer (Ethernet header, EtherCAT header, the datagram,
+  the padding) is a sub-test, compared with the reference's layout field by field, named as
+  Wireshark names them.
+- ``ch05.expected_wkc``: the working counter of datagrams over random bus layouts (half with a
+  cut cable); the truth is what the simulated slaves count once the SOEM-shaped master brought
+  the bus to OP. Broadcast, addressed and logical commands and registers a slave lacks are
+  scored apart.
 - ``ch05.cia402_enable``: a controlword rule run cycle by cycle against a :class:`Cia402Drive`
-  in OP on a simulated bus, from Switch on disabled, from Fault and from Quick stop active,
-  with manufacturer bits set in the statusword; the judge reads the drive's states.
+  in OP on a simulated bus, from Switch on disabled, Ready to switch on, Switched on and
+  Fault, each once with a plain statusword and once with manufacturer bits set; a stuck run
+  is reported with the state, the controlword written there and the command that was needed.
 """
 
 from __future__ import annotations
 
-from robocourse.grading import CheckFailed, Failures, register
-from robocourse.grading.probes import number
+import json
+
+from robocourse.grading import CheckFailed, Failures, SubTest, register
+from robocourse.grading.schema import Any, Call, Dict, Hex, Int, List, Number, OneOf, Str
+
+from . import probes
 
 # --- ch05.fprd_frame -------------------------------------------------------------------------------
 
 
 def _fprd_inputs(rng):
     cases = [[0x1001, 0x0130, 2, 0]]       # AL status of the first slave, as SOEM reads it
-    for _ in range(11):
+    for _ in range(9):
         cases.append([int(rng.integers(0x1000, 0x10000)), int(rng.integers(0, 0x1000)),
                       int(rng.integers(1, 61)), int(rng.integers(0, 256))])
+    cases.append([int(rng.integers(0x1000, 0x10000)), int(rng.integers(0, 0x1000)), 40, int(rng.integers(0, 256))])
     return {"cases": cases}
 
 
-def _fprd_probe(inputs, fprd_frame):
-    out = []
-    for case in inputs["cases"]:
-        try:
-            value = fprd_frame(*case)
-        except NotImplementedError:
-            raise
-        except Exception as exc:
-            out.append({"raised": type(exc).__name__, "message": str(exc)[:300]})
-            continue
-        if isinstance(value, (bytes, bytearray, memoryview)):
-            out.append({"hex": bytes(value).hex()})
-        else:
-            out.append({"type": type(value).__name__})
-    return out
+def _want(case) -> bytes:
+    from .frames import Command, Frame, datagram, encode_frame
+
+    station, reg, length, idx = case
+    return encode_frame(Frame([datagram(Command.FPRD, station, reg, length, idx)]), pad=True)
 
 
-def _field_diffs(got: bytes, want: bytes) -> list[str]:
-    """Which fields of an FPRD frame differ, named as Wireshark names them."""
-    fields = [("destination MAC", 0, 6), ("source MAC", 6, 12), ("EtherType", 12, 14),
-              ("EtherCAT header (length | type << 12)", 14, 16), ("ecat.cmd", 16, 17), ("ecat.idx", 17, 18),
-              ("ecat.adp (station address)", 18, 20), ("ecat.ado (register)", 20, 22),
-              ("ecat.len (length | flags)", 22, 24), ("ecat.int (IRQ)", 24, 26)]
-    n = int.from_bytes(want[22:24], "little") & 0x07FF
-    fields += [("data (zeros for a read)", 26, 26 + n), ("ecat.cnt (working counter)", 26 + n, 28 + n),
-               ("padding", 28 + n, len(want))]
-    out = []
-    for name, lo, hi in fields:
-        if got[lo:hi] != want[lo:hi]:
-            out.append(f"{name} at bytes {lo}..{hi - 1}: got {got[lo:hi].hex(' ') or 'nothing'}, "
-                       f"expected {want[lo:hi].hex(' ')}")
-    return out
-
-
-@register("ch05.fprd_frame", weight=2, time_limit=20, uses=("fprd_frame",), probe=_fprd_probe, inputs=_fprd_inputs,
-          references=("robocourse.ethercat.frames:encode_frame", "robocourse.ethercat.frames:frame_bytes",
-                      "robocourse.ethercat.frames:datagram"))
-def check_fprd_frame(inputs, outputs):
-    """fprd_frame(station, register, length, idx) -> the Ethernet frame's bytes, exactly."""
-    from .bus import Bus
-    from .devices import Coupler, DigitalInputs
-    from .frames import Command, Frame, FrameError, decode_frame, encode_frame, frame_bytes
-    from .frames import datagram as make_datagram
-
+def _frames(inputs, outputs):
+    """(call text, the student's bytes, the reference's bytes) per case; the rest as problems."""
     f = Failures()
-    cases = inputs["cases"]
-    if not isinstance(outputs, list) or len(outputs) != len(cases):
-        raise CheckFailed(f"the probe expected {len(cases)} results, got {str(outputs)[:80]}")
-    good = 0
-    for (station, reg, length, idx), got in zip(cases, outputs):
-        call = f"fprd_frame(0x{station:04X}, 0x{reg:04X}, {length}, {idx})"
-        if not isinstance(got, dict) or "hex" not in got:
-            if isinstance(got, dict) and "raised" in got:
-                f.add(f"{call} raised {got['raised']}: {got.get('message', '')}")
-            else:
-                shown = got.get("type") if isinstance(got, dict) else repr(got)
-                f.add(f"{call} must return bytes, got {shown}")
-            continue
-        try:
-            raw = bytes.fromhex(str(got["hex"]))
-        except ValueError:
-            f.add(f"{call}: unreadable result")
-            continue
-        want = encode_frame(Frame([make_datagram(Command.FPRD, station, reg, length, idx)]), pad=True)
-        if raw == want:
-            good += 1
-            continue
-        try:
-            decode_frame(raw)
-            decoded = ""
-        except FrameError as exc:
-            decoded = f"; our decoder refuses it: {exc}"
-        if len(raw) != len(want):
-            f.add(f"{call} is {len(raw)} bytes, expected {len(want)} (14 Ethernet + 2 EtherCAT header + 10 "
-                  f"datagram header + {length} data + 2 WKC, padded with zeros to 60){decoded}")
+    frames = []
+    for case, got in zip(inputs["cases"], outputs["frames"], strict=True):
+        station, reg, length, idx = case
+        text = f"fprd_frame(0x{station:04X}, 0x{reg:04X}, {length}, {idx})"
+        if "raised" in got:
+            f.add(f"{text} raised {got['raised']}: {got['message']}")
+        elif "hex" not in got:
+            f.add(f"{text} must return bytes, got {got['type']}")
         else:
-            f.add(f"{call}: " + "; ".join(_field_diffs(raw, want)) + decoded)
-        if len(f.messages) >= 4:
-            break
-    if good == len(cases):
-        # the first case on a wire: a coupler and a terminal at 0x1001, 0x1002 answer one FPRD
-        bus = Bus([Coupler(), DigitalInputs()], clock=lambda: 0)
-        for k in range(len(bus.slaves)):
-            bus.process(frame_bytes([make_datagram(Command.APWR, -k, 0x0010, (0x1001 + k).to_bytes(2, "little"))]))
-        reply = decode_frame(bus.process(bytes.fromhex(outputs[0]["hex"])))
-        if reply.datagrams[0].wkc != 1:
-            f.add(f"the FPRD to 0x1001 came back from a two-slave bus with WKC {reply.datagrams[0].wkc}, not 1")
-    return f.done(f"{good} frames byte-exact (random stations, registers, lengths 1..60, padding); the bus "
-                  "answered the first with WKC 1")
+            frames.append((text, got["hex"], _want(case), length))
+    return f, frames
+
+
+def _diff(raw: bytes, want: bytes, fields) -> list[str]:
+    return [f"{name} at bytes {lo}..{hi - 1}: got {raw[lo:hi].hex(' ') or 'nothing'}, expected {want[lo:hi].hex(' ')}"
+            for name, lo, hi in fields if raw[lo:hi] != want[lo:hi]]
+
+
+def _fprd_layer(fields_of, rule: str):
+    def judge(inputs, outputs):
+        f, frames = _frames(inputs, outputs)
+        for text, raw, want, _length in frames:
+            wrong = _diff(raw, want, fields_of(want))
+            if wrong:
+                f.add(f"{text}: " + "; ".join(wrong) + f" ({rule})")
+        return f.done("")
+    return judge
+
+
+def _eth_fields(want):
+    return [("destination MAC", 0, 6), ("source MAC", 6, 12), ("EtherType", 12, 14)]
+
+
+def _ecat_fields(want):
+    return [("EtherCAT header (length | type << 12)", 14, 16)]
+
+
+def _datagram_fields(want):
+    n = int.from_bytes(want[22:24], "little") & 0x07FF
+    return [("ecat.cmd", 16, 17), ("ecat.idx", 17, 18), ("ecat.adp (station address)", 18, 20),
+            ("ecat.ado (register)", 20, 22), ("ecat.len (length | flags)", 22, 24), ("ecat.int (IRQ)", 24, 26),
+            ("data (zeros for a read)", 26, 26 + n), ("ecat.cnt (working counter)", 26 + n, 28 + n)]
+
+
+def _fprd_padding(inputs, outputs):
+    f, frames = _frames(inputs, outputs)
+    for text, raw, want, length in frames:
+        end = 28 + length
+        if len(raw) != len(want):
+            f.add(f"{text} is {len(raw)} bytes, expected {len(want)}: 14 Ethernet + 2 EtherCAT header + 10 datagram "
+                  f"header + {length} data + 2 WKC = {end}" + (", padded with zeros to the 60-byte Ethernet minimum"
+                                                              if end < 60 else ", no padding needed past 60 bytes"))
+        elif raw[end:] != want[end:]:
+            f.add(f"{text}: the padding after byte {end - 1} must be zeros, got {raw[end:end + 8].hex(' ')}...")
+    return f.done("")
+
+
+register("ch05.fprd_frame", uses=("fprd_frame",), probe=probes.fprd_probe, inputs=_fprd_inputs, time_limit=20,
+         references=("robocourse.ethercat.frames:encode_frame", "robocourse.ethercat.frames:frame_bytes",
+                     "robocourse.ethercat.frames:datagram"),
+         schema=Dict(frames=List(OneOf(Dict(hex=Hex(max_bytes=4096)), Dict(raised=Str(), message=Str()),
+                                       Dict(type=Str(max_len=200))), length="cases")),
+         subtests=[SubTest("Ethernet header: ff:ff:ff:ff:ff:ff, 01:01:01:01:01:01, EtherType 0x88A4 big-endian", 0.5,
+                           _fprd_layer(_eth_fields, "EtherType is big-endian, as every EtherType")),
+                   SubTest("EtherCAT header: datagrams' length | type 1 << 12, little-endian", 0.5,
+                           _fprd_layer(_ecat_fields, "the length of all datagrams: 10 header + data + 2 WKC")),
+                   SubTest("the datagram: cmd 4, idx, ADP, ADO, len (more bit clear), IRQ 0, zero data, WKC 0", 0.5,
+                           _fprd_layer(_datagram_fields, "every field little-endian; one datagram: bit 15 of len "
+                                                         "clear")),
+                   SubTest("padded with zeros to the 60-byte Ethernet minimum", 0.5, _fprd_padding)])
 
 
 # --- ch05.expected_wkc -----------------------------------------------------------------------------
@@ -141,6 +142,7 @@ def _wkc_inputs(rng):
                {"cmd": "BRW", "adp": 0, "ado": 0x0012, "length": 2},
                {"cmd": "BRD", "adp": 0, "ado": 0x0910, "length": 4},
                {"cmd": "APRD", "adp": (-int(rng.integers(0, n + 1))) & 0xFFFF, "ado": 0x0130, "length": 2},
+               {"cmd": "APRW", "adp": (-int(rng.integers(0, n))) & 0xFFFF, "ado": 0x0012, "length": 2},
                {"cmd": "FPRD", "adp": int(rng.choice([s["station"] for s in slaves])), "ado": 0x0130, "length": 2},
                {"cmd": "FPWR", "adp": 0x1001 + n + int(rng.integers(0, 5)), "ado": 0x0012, "length": 2},
                {"cmd": "FPRW", "adp": int(rng.choice([s["station"] for s in slaves])), "ado": 0x0012, "length": 2},
@@ -154,14 +156,7 @@ def _wkc_inputs(rng):
     return {"buses": buses}
 
 
-def _wkc_probe(inputs, expected_wkc):
-    from robocourse.grading.probes import call
-
-    out = []
-    for bus in inputs["buses"]:
-        view = {"slaves": bus["slaves"], "connected": bus["connected"]}
-        out.append([call(expected_wkc, view, dict(d)) for d in bus["datagrams"]])
-    return out
+_TRUTH: dict[str, list[int]] = {}
 
 
 def simulated_wkcs(layout) -> list[int]:
@@ -169,8 +164,11 @@ def simulated_wkcs(layout) -> list[int]:
 
     The bus is brought to OP by the master (stations 0x1001.., outputs then inputs in the
     logical image from 0, as SOEM maps them); then the cable is cut after ``connected`` slaves
-    and each datagram is sent in a frame of its own.
+    and each datagram is sent in a frame of its own. Memoised: the sub-tests share one run.
     """
+    key = json.dumps(layout, sort_keys=True)
+    if key in _TRUTH:
+        return _TRUTH[key]
     from .bus import Bus
     from .devices import Cia402Drive, Coupler, DigitalInputs, DigitalOutputs
     from .frames import Command, Datagram, datagram, decode_frame, frame_bytes
@@ -197,10 +195,13 @@ def simulated_wkcs(layout) -> list[int]:
                 dg.data[:] = bytes(d["length"])
         else:
             dg = datagram(cmd, d["adp"], d["ado"], d["length"])
-            if d["ado"] == 0x0012 and cmd in (Command.BWR, Command.BRW, Command.FPWR, Command.FPRW):
+            if d["ado"] == 0x0012 and cmd in (Command.BWR, Command.BRW, Command.FPWR, Command.FPRW, Command.APRW):
                 dg.data[:] = bytes(2)          # alias 0: harmless (the alias is not activated)
         reply = bus.process(frame_bytes([dg]))
         out.append(decode_frame(reply).datagrams[0].wkc if reply is not None else 0)
+    if len(_TRUTH) > 64:
+        _TRUTH.clear()
+    _TRUTH[key] = out
     return out
 
 
@@ -210,157 +211,220 @@ def _describe(d) -> str:
     return f"{d['cmd']} adp=0x{d['adp']:04X} ado=0x{d['ado']:04X} len {d['length']}"
 
 
-@register("ch05.expected_wkc", weight=2, time_limit=30, uses=("expected_wkc",), probe=_wkc_probe,
-          inputs=_wkc_inputs)
-def check_expected_wkc(inputs, outputs):
-    """expected_wkc(bus, datagram) -> the working counter the datagram comes back with."""
-    f = Failures()
-    total = right = 0
-    for b, (layout, got) in enumerate(zip(inputs["buses"], outputs)):
-        truth = simulated_wkcs(layout)
-        names = " - ".join(s["name"] for s in layout["slaves"])
-        cut = "" if layout["connected"] == len(layout["slaves"]) else \
-            f", cable cut after slave {layout['connected']}"
-        for d, want, rec in zip(layout["datagrams"], truth, got):
-            total += 1
-            if "raised" in rec:
-                f.add(f"bus {b} ({names}{cut}): {_describe(d)} raised {rec['raised']}: {rec.get('message', '')}")
-                continue
-            try:
-                value = number(rec.get("value"))
-            except TypeError:
-                f.add(f"bus {b}: {_describe(d)} returned {str(rec.get('value'))[:40]!r}, not a number")
-                continue
-            if value != want:
-                f.add(f"bus {b} ({names}{cut}): {_describe(d)} -> {value:g}, the slaves count {want}")
-            else:
-                right += 1
-        if len(f.messages) >= 6:
-            break
-    return f.done(f"{right}/{total} working counters match the simulated slaves (6 random buses, 3 with a cut)")
+def _kind(d) -> str:
+    if "logical" in d:
+        return "logical"
+    if 0x0900 <= d["ado"] < 0x0A00:
+        return "dc"
+    return "broadcast" if d["cmd"].startswith("B") else "addressed"
+
+
+def _wkc_kind(kind: str, rule: str):
+    def judge(inputs, outputs):
+        f = Failures()
+        right = total = 0
+        for b, (layout, got) in enumerate(zip(inputs["buses"], outputs["buses"], strict=True)):
+            if len(got) != len(layout["datagrams"]):
+                raise CheckFailed(f"bus {b}: {len(layout['datagrams'])} datagrams were asked, {len(got)} answers came "
+                                  "back")
+            truth = simulated_wkcs(layout)
+            names = " - ".join(s["name"] for s in layout["slaves"])
+            cut = "" if layout["connected"] == len(layout["slaves"]) else \
+                f", cable cut after slave {layout['connected']}"
+            for d, want, rec in zip(layout["datagrams"], truth, got, strict=True):
+                if _kind(d) != kind:
+                    continue
+                total += 1
+                if "raised" in rec:
+                    f.add(f"bus {b} ({names}{cut}): {_describe(d)} raised {rec['raised']}: {rec['message']}")
+                elif rec["value"] != want:
+                    f.add(f"bus {b} ({names}{cut}): {_describe(d)} -> {rec['value']!r}, the slaves count {want} ({rule})")
+                else:
+                    right += 1
+        return f.done(f"{right}/{total} match the simulated slaves")
+    return judge
+
+
+register("ch05.expected_wkc", uses=("expected_wkc",), probe=probes.wkc_probe, inputs=_wkc_inputs, time_limit=30,
+         schema=Dict(buses=List(List(Call(Number(finite=False)), max_len=50), length="buses")),
+         subtests=[SubTest("broadcast commands: every connected slave counts (read 1, write 1, read-write 3)", 0.5,
+                           _wkc_kind("broadcast", "Bxx reach every slave before the cut; RD 1, WR 1, RW 1 + 2")),
+                   SubTest("addressed commands: the one slave at that position or station, 0 if none", 0.5,
+                           _wkc_kind("addressed", "APxx: position (-adp) & 0xFFFF; FPxx: the configured station; "
+                                                  "none there or past the cut: 0")),
+                   SubTest("logical commands: per slave whose mapped data they read or write", 0.5,
+                           _wkc_kind("logical", "LRD: 1 per slave with inputs; LWR: 1 per slave with outputs; "
+                                                "LRW: 2 per slave with outputs + 1 per slave with inputs")),
+                   SubTest("registers a slave lacks count nothing (DC registers on an ESC without DC)", 0.5,
+                           _wkc_kind("dc", "0x0900-0x09FF exist only on an ESC with a DC unit"))])
 
 
 # --- ch05.cia402_enable ----------------------------------------------------------------------------
 
 #: manufacturer-specific / warning bits a real drive may set (outside every state mask 0x6F)
 NOISE_BITS = (0x0080, 0x0100, 0x0800, 0x1000, 0x4000, 0x8000)
-CYCLES = 40
+STARTS = ("switch on disabled", "ready to switch on", "switched on", "fault")
+#: what each state needs written to move on toward Operation enabled (the judge's key)
+_NEEDED = {"switch on disabled": "shutdown (0x0006)", "ready to switch on": "switch on (0x0007)",
+           "switched on": "enable operation (0x000F)", "operation enabled": "enable operation (0x000F), held",
+           "fault": "a fault reset: 0x0080 after a controlword without bit 7 (a rising edge of bit 7)",
+           "quick stop active": "disable voltage (0x0000), then shutdown",
+           "fault reaction active": "nothing new: the drive is reacting; it reports Fault next",
+           "not ready": "nothing new: the drive is starting"}
 
 
 def _cia_inputs(rng):
-    starts = ["switch on disabled", "fault", "ready to switch on", "switched on", "fault"]
-    noise = [int(sum(b for b in NOISE_BITS if rng.random() < 0.5)) for _ in starts]
-    return {"starts": starts, "noise": noise, "error_codes": [int(rng.choice([0x2310, 0x3220, 0x4310, 0x7305]))
-                                                                for _ in starts]}
-
-
-def _cia_probe(inputs, controlword_for):
-    """Run ``controlword_for(statusword)`` each cycle against a drive in OP (a simulated bus)."""
-    from robocourse.grading.probes import call
-
-    from .bus import Bus
-    from .devices import Cia402Drive, Coupler, drive_inputs, drive_outputs
-    from .master import Master
-
     runs = []
-    for start, noise, code in zip(inputs["starts"], inputs["noise"], inputs["error_codes"]):
-        clock = [0]
-
-        def now(clock=clock):
-            return clock[0]
-
-        drive = Cia402Drive()
-        bus = Bus([Coupler(), drive], clock=now)
-        m = Master()
-        m.open(bus)
-        m.bring_up(dc=False)
-        slave = m.slaves[1]
-
-        def cycle(cw, slave=slave, clock=clock, m=m):
-            pos = drive_inputs(slave.input)[1]
-            slave.output = drive_outputs(cw, pos)
-            clock[0] += 1_000_000
-            m.send_processdata()
-            return m.receive_processdata()
-
-        # bring the drive to its start state with the controlwords a master would write, each
-        # held until the statusword (one cycle behind, as process data is) shows its state
-        from .devices import READY_TO_SWITCH_ON, SWITCHED_ON, cia402_state
-
-        steps = {"switch on disabled": [], "ready to switch on": [(0x06, READY_TO_SWITCH_ON)],
-                 "switched on": [(0x06, READY_TO_SWITCH_ON), (0x07, SWITCHED_ON)],
-                 "fault": [(0x06, READY_TO_SWITCH_ON), (0x07, SWITCHED_ON), (0x0F, None)]}[start]
-        cycle(0x00)
-        cycle(0x00)
-        for cw, want in steps:
-            for _ in range(10):
-                cycle(cw)
-                if want is None or cia402_state(drive_inputs(slave.input)[0]) == want:
-                    break
-        if start == "fault":
-            drive.inject_fault(code)
-            for _ in range(3):
-                cycle(0x0F)
-        trace = []
-        for _ in range(CYCLES):
-            sw = drive_inputs(slave.input)[0]
-            rec = call(controlword_for, sw | noise)
-            trace.append({"statusword": sw, "shown": sw | noise, "controlword": rec})
-            if "raised" in rec or not isinstance(rec.get("value"), int) or isinstance(rec.get("value"), bool):
-                break
-            cw = rec["value"]
-            if not 0 <= cw <= 0xFFFF:
-                break
-            cycle(cw)
-        runs.append({"start": start, "start_statusword": trace[0]["statusword"] if trace else None,
-                     "trace": trace, "final_statusword": drive_inputs(slave.input)[0], "error_code": drive.error_code})
-    return runs
+    for noisy in (False, True):
+        for start in STARTS:
+            noise = int(sum(b for b in NOISE_BITS if rng.random() < 0.5)) | NOISE_BITS[int(rng.integers(0, 6))] \
+                if noisy else 0
+            runs.append({"start": start, "noise": noise,
+                         "error_code": int(rng.choice([0x2310, 0x3220, 0x4310, 0x7305]))})
+    return {"runs": runs}
 
 
-@register("ch05.cia402_enable", weight=2, time_limit=30, uses=("controlword_for",), probe=_cia_probe,
-          inputs=_cia_inputs, references=("robocourse.ethercat.ros2_control:next_controlword",))
-def check_cia402_enable(inputs, runs):
-    """controlword_for(statusword) takes a drive to Operation enabled (fault reset included) and keeps it there."""
+_WORD = Int(lo=0, hi=0xFFFF)
+_CIA_SCHEMA = Dict(runs=List(Dict(start=Str(choices=STARTS), noise=_WORD,
+                                  trace=List(Dict(statusword=_WORD, shown=_WORD, controlword=Call(Any(max_items=50))),
+                                             min_len=1, max_len=probes.CYCLES),
+                                  final_statusword=_WORD, error_code=_WORD), length="runs"))
+
+
+def _cw(rec) -> int | None:
+    v = rec.get("value")
+    return v if isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= 0xFFFF else None
+
+
+def _path(states, cws, most: int = 5) -> str:
+    """The run as 'state, you wrote 0x...' steps, repeats folded: 'fault, you wrote 0x000F (x40)'."""
+    steps: list[list] = []
+    for state, cw in zip(states, cws):
+        if steps and steps[-1][:2] == [state, cw]:
+            steps[-1][2] += 1
+        else:
+            steps.append([state, cw, 1])
+    shown = [f"{st}, you wrote 0x{cw:04X}" + (f" (x{n})" if n > 1 else "") for st, cw, n in steps[:most]]
+    return " -> ".join(shown) + (" -> ..." if len(steps) > most else "")
+
+
+def _run_problem(run) -> tuple[str, int | None]:
+    """(what went wrong in this run or "", the cycle operation enabled was first reported)."""
     from .devices import FAULT, OPERATION_ENABLED, cia402_state
 
+    start, trace = run["start"], run["trace"]
+    label = f"from {start}" + (f" (manufacturer bits 0x{run['noise']:04X} set in the statusword)" if run["noise"] else "")
+    last = trace[-1]
+    if "raised" in last["controlword"]:
+        return (f"{label}: controlword_for(0x{last['shown']:04X}) raised {last['controlword']['raised']}: "
+                f"{last['controlword']['message']}", None)
+    if _cw(last["controlword"]) is None:
+        return (f"{label}: controlword_for(0x{last['shown']:04X}) returned {last['controlword'].get('value')!r}; a "
+                "controlword is an int 0..0xFFFF", None)
+    states = [cia402_state(t["statusword"]) for t in trace]
+    cws = [_cw(t["controlword"]) for t in trace]
+    first = states.index(OPERATION_ENABLED) if OPERATION_ENABLED in states else None
+    path = _path(states, cws)
+    if first is None:
+        stuck = states[-1]
+        n = next((k for k in range(len(states)) if all(s == stuck for s in states[k:])), 0)
+        written = sorted({c for s, c in zip(states[n:], cws[n:])})
+        shown = ", ".join(f"0x{c:04X}" for c in written)
+        why = ""
+        if stuck == FAULT and all(c & 0x80 for c in written) and n > 0 and cws[n - 1] is not None and cws[n - 1] & 0x80:
+            why = "; bit 7 was already set in your previous controlword, so there was no rising edge"
+        elif stuck == FAULT and written and all(c & 0x80 for c in written):
+            why = "; bit 7 stayed set in every controlword, so only the first could be a rising edge"
+        return (f"{label}: stuck in {stuck} (statusword 0x{trace[-1]['statusword']:04X}, shown to you as "
+                f"0x{trace[-1]['shown']:04X}) for the last {len(states) - n} cycles; you wrote {shown} there{why}. "
+                f"{stuck.capitalize()} needs {_NEEDED.get(stuck, '?')}. Path: {path}", None)
+    if first > 12:
+        return (f"{label}: operation enabled only after {first} cycles; each transition takes one cycle (at most 4, "
+                f"plus the fault reset): {path}", first)
+    later = states[first:] + [cia402_state(run["final_statusword"])]
+    if any(s != OPERATION_ENABLED for s in later):
+        k = first + next(i for i, s in enumerate(later) if s != OPERATION_ENABLED)
+        fell_to = later[k - first]
+        written = cws[k - 1] if k - 1 < len(cws) else cws[-1]
+        return (f"{label}: reached operation enabled, then you wrote 0x{written:04X} and the drive fell to {fell_to}: "
+                "in operation enabled keep writing enable operation (0x000F)", first)
+    if start == "fault" and run["error_code"] != 0:
+        return (f"{label}: the drive's error code is still 0x{run['error_code']:04X}: a fault reset is a rising edge "
+                "of bit 7 (0x0080)", first)
+    return "", first
+
+
+def _cia_starts(starts, *, hold: bool = False):
+    """Judge the plain-statusword runs from ``starts`` (reaching operation enabled, or with
+    ``hold`` only staying there once reached)."""
+    def judge(inputs, outputs):
+        f = Failures()
+        summary = []
+        reached = 0
+        for run in outputs["runs"]:
+            if run["start"] not in starts or run["noise"]:
+                continue
+            problem, first = _run_problem(run)
+            reached += first is not None
+            fell = "then you wrote" in problem
+            if hold:
+                if fell:
+                    f.add(problem)
+            elif problem and not fell:
+                f.add(problem)
+            elif first is not None:
+                summary.append(f"{run['start']}: {first} cycles")
+        if hold and not reached:
+            f.add("no run reached operation enabled, so holding it was never shown; fix the transitions first")
+        return f.done(", ".join(summary))
+    return judge
+
+
+def _cia_masks(inputs, outputs):
+    """A run with manufacturer bits set must go exactly as its plain twin went: a rule that reads
+    the state through the masks writes the same controlwords."""
     f = Failures()
-    summary = []
-    for run in runs:
-        start = run["start"]
-        trace = run["trace"]
-        if trace and start != "fault" and cia402_state(trace[0]["statusword"]) != start:
-            raise RuntimeError(f"check error: the drive was set up in {cia402_state(trace[0]['statusword'])}, "
-                               f"not {start}")
-        if not trace:
-            f.add(f"from {start}: no cycle ran")
-            continue
-        last = trace[-1]["controlword"]
-        if "raised" in last:
-            f.add(f"from {start}: controlword_for(0x{trace[-1]['shown']:04X}) raised {last['raised']}: "
-                  f"{last.get('message', '')}")
-            continue
-        value = last.get("value")
-        if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value <= 0xFFFF:
-            f.add(f"from {start}: controlword_for(0x{trace[-1]['shown']:04X}) returned {value!r}; a controlword is "
-                  "an int 0..0xFFFF")
-            continue
-        states = [cia402_state(t["statusword"]) for t in trace]
-        first = states.index(OPERATION_ENABLED) if OPERATION_ENABLED in states else None
-        path = " -> ".join(f"{s} (cw 0x{t['controlword']['value']:04X})" for s, t in zip(states[:8], trace[:8]))
-        if first is None:
-            f.add(f"from {start} (statusword shown 0x{trace[0]['shown']:04X}, manufacturer bits set): never reached "
-                  f"operation enabled in {len(trace)} cycles: {path}")
-            continue
-        if first > 12:
-            f.add(f"from {start}: operation enabled only after {first} cycles; the transitions take one cycle each "
-                  f"(at most 4, plus the fault reset): {path}")
-        later = states[first:]
-        if any(s != OPERATION_ENABLED for s in later) or cia402_state(run["final_statusword"]) != OPERATION_ENABLED:
-            drop = next((s for s in later if s != OPERATION_ENABLED), cia402_state(run["final_statusword"]))
-            f.add(f"from {start}: reached operation enabled, then fell to {drop}: in operation enabled keep "
-                  "writing enable operation (0x000F)")
-        if start == "fault" and FAULT in states[:1] and run["error_code"] != 0:
-            f.add(f"from fault: the drive's error code is still 0x{run['error_code']:04X}: a fault reset is a rising "
-                  "edge of bit 7 (0x0080)")
-        summary.append(f"{start}: {first}")
-    return f.done("operation enabled after " + ", ".join(summary) + " cycles, and held")
+    plain = {run["start"]: run for run in outputs["runs"] if not run["noise"]}
+    shown = 0
+    for run in outputs["runs"]:
+        twin = plain.get(run["start"])
+        if not run["noise"] or twin is None or _run_problem(twin)[1] is None:
+            continue  # only where the plain run reached operation enabled: there the rule is shown to work
+        shown += 1
+        for a, b in zip(twin["trace"], run["trace"], strict=False):
+            if _cw(a["controlword"]) != _cw(b["controlword"]) or "raised" in b["controlword"]:
+                got = b["controlword"].get("raised") or (f"0x{_cw(b['controlword']):04X}" if _cw(b["controlword"])
+                                                        is not None else repr(b["controlword"].get("value")))
+                f.add(f"from {run['start']}: for statusword 0x{a['shown']:04X} ({cia402_name(a['statusword'])}) you "
+                      f"wrote 0x{_cw(a['controlword']):04X}, but for 0x{b['shown']:04X}, the same state with "
+                      f"manufacturer bits 0x{run['noise']:04X} set, you wrote {got}: decode the state with the masks "
+                      "(sw & 0x4F, sw & 0x6F); real drives set other bits too")
+                break
+        else:
+            if len(run["trace"]) != len(twin["trace"]):
+                f.add(f"from {run['start']}: with manufacturer bits 0x{run['noise']:04X} set the run stopped after "
+                      f"{len(run['trace'])} cycles: decode the state with the masks")
+    if not shown:
+        f.add("no run reached operation enabled, so nothing shows that your rule reads the state through the masks; "
+              "fix the transitions first")
+    return f.done("")
+
+
+def cia402_name(statusword: int) -> str:
+    from .devices import cia402_state
+
+    return cia402_state(statusword)
+
+
+register("ch05.cia402_enable", uses=("controlword_for",), probe=probes.cia_probe, inputs=_cia_inputs, time_limit=30,
+         references=("robocourse.ethercat.ros2_control:next_controlword",), schema=_CIA_SCHEMA,
+         subtests=[SubTest("from switch on disabled: shutdown, switch on, enable operation", 0.5,
+                           _cia_starts(("switch on disabled",))),
+                   SubTest("from ready to switch on and from switched on", 0.25,
+                           _cia_starts(("ready to switch on", "switched on"))),
+                   SubTest("from fault: a fault reset (rising edge of bit 7), then on to operation enabled", 0.5,
+                           _cia_starts(("fault",))),
+                   SubTest("holds operation enabled (keeps writing 0x000F)", 0.25,
+                           _cia_starts(STARTS, hold=True)),
+                   SubTest("decodes the state with the masks (manufacturer bits set)", 0.5,
+                           _cia_masks)])

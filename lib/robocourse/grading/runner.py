@@ -114,6 +114,16 @@ def _load_notebook(folder: Path):
     return kernel_problem(nb) or cells
 
 
+def _fresh_namespace(shell) -> None:
+    """Empty the user namespace for the next answer of a bank (IPython's reset, minus its history,
+    alias and cache work: 0.01 s instead of 0.15 s per answer). Imported modules stay imported."""
+    ns = shell.user_ns
+    for key in [k for k in ns if k not in ("__builtin__", "__builtins__", "__name__")]:
+        del ns[key]
+    shell.user_ns_hidden.clear()
+    shell.init_user_ns()
+
+
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     folder = Path(argv[0] if argv else ".")
@@ -197,7 +207,7 @@ def main(argv=None) -> int:
     start = time.monotonic()
     for number, segment in enumerate(segments):
         if segment["fresh"]:
-            shell.reset(new_session=False)
+            _fresh_namespace(shell)
             sys.stdout = sys.stderr = sink
         for index, source in segment["cells"]:
             where = f"cell {index}" if not segment["fresh"] else f"segment {number} cell {index}"

@@ -25,7 +25,9 @@ Three kinds, chosen by the arguments:
 
 A scalar is one measurement (one run); a sequence is one value per round. Values are given in
 the measurement's own unit and shown as ``value * scale`` with ``unit`` (``scale=1e-3,
-unit="us"`` turns ns into us). ``each`` says what one round is ("5000 iterations at 1 kHz").
+unit="us"`` turns ns into us). ``each`` says what one round is ("5000 iterations at 1 kHz"); for
+a single value it replaces "one run" and says what the value comes from ("one run of 5000
+iterations", "9 runs, the last round of each setting").
 
 Examples (what a notebook cell does; the last expression renders as Markdown)::
 
@@ -39,8 +41,8 @@ Examples (what a notebook cell does; the last expression renders as Markdown)::
     >>> claim("wake-up p50", {"hybrid": [12e3, 11e3], "sleep": [80e3, 95e3]}, unit="us", scale=1e-3).verdict
     'cannot tell'
     >>> print(claim("max latency", 1.2e6, unit="us", scale=1e-3, limit=50e3, limit_name="the 5 % budget",
-    ...             each="5000 iterations").text)
-    **max latency** (one run, 5000 iterations): 1200.0 us; **above the 5 % budget** (50.0 us).
+    ...             each="one run of 5000 iterations").text)
+    **max latency** (one run of 5000 iterations): 1200.0 us; **above the 5 % budget** (50.0 us).
     >>> claim("faults", {"loop": 4000, "pool": 3}, digits=0, compare=False).verdict
     'measured'
 
@@ -194,7 +196,7 @@ def _render(what, values, *, unit, scale, digits, each, limit, limit_name, compa
     counts = {len(v) for v in cases.values()}
     n = counts.pop() if len(counts) == 1 else None
     if n is not None:
-        how = (f"one run, {each}" if each else "one run") if n == 1 else \
+        how = (each or "one run") if n == 1 else \
             f"median [lowest–highest] of {n} rounds" + (f", each {each}" if each else "")
     else:
         how = "median [lowest–highest] of each case's rounds" + (f", each {each}" if each else "")

@@ -43,6 +43,7 @@ _SLOT = struct.Struct("qd")  # sequence number, value
 _DATA = _MUTEX_SIZE  # value under the mutex
 _INDEX = _DATA + 16  # lock-free: which slot is current
 _SLOTS = _INDEX + 16  # two slots
+_BURSTS = _SLOTS + 2 * _SLOT.size  # the hog's burst count
 
 
 def _libc():
@@ -97,18 +98,31 @@ def _low(buf, mode: str, cpu: int, priority: int, hold_s: float, rest_s: float, 
         time.sleep(rest_s)
 
 
-def _medium(cpu: int, priority: int, burst_s: float, gap_s: float, stop) -> None:
-    """The medium priority hog: spin ``burst_s``, sleep ``gap_s``; it shares nothing with the others."""
+def _medium(buf, cpu: int, priority: int, burst_s: float, gap_s: float, phase_s: float, seed: int, stop) -> None:
+    """The medium priority hog: spin ``burst_s``, sleep ``gap_s`` plus a seeded random part of
+    ``phase_s``; it shares nothing with the others. Counts its bursts in ``buf``.
+
+    The random part matters: the writer cannot run during a burst, so it restarts its cycle when
+    a burst ends; with a fixed gap the hog would wake at the same phase of the writer's cycle
+    every time (in lock-step), always inside a hold or never. A gap drawn over one writer cycle
+    lands inside a hold with probability hold / (hold + rest) at every burst.
+    """
+    import random
+
     _pin_and_prioritise(cpu, priority)
+    rng = random.Random(seed)
     while not stop.is_set():
         _spin(burst_s)
-        time.sleep(gap_s)
+        struct.pack_into("q", buf, _BURSTS, struct.unpack_from("q", buf, _BURSTS)[0] + 1)
+        time.sleep(gap_s + rng.uniform(0.0, phase_s))
 
 
-def _progress(cpu: int, priority: int, seconds: float, q) -> None:
+def _progress(cpu: int, priority: int, start: float, end: float, q) -> None:
     _pin_and_prioritise(cpu, priority)
-    n, end = 0, time.perf_counter() + seconds
-    while time.perf_counter() < end:
+    while time.monotonic() < start:      # both wait for the same window, sleeping (the CPU stays free)
+        time.sleep(0.001)
+    n = 0
+    while time.monotonic() < end:
         n += 1
     q.put((priority, n))
 
@@ -116,10 +130,13 @@ def _progress(cpu: int, priority: int, seconds: float, q) -> None:
 def pinning_confines(cpu: int | None = None, seconds: float = 0.2) -> tuple[bool, float]:
     """Do two SCHED_FIFO processes pinned to one CPU really take turns on it?
 
-    Runs a priority 50 and a priority 10 busy loop pinned to ``cpu`` for ``seconds``; on a real
-    CPU the priority 10 one barely progresses while the other spins. Returns (confined, the low
-    one's progress relative to the high one's). Some virtual machines run both in parallel
-    anyway; then no experiment on one "core" can show preemption or inversion.
+    A priority 50 and a priority 10 busy loop, both pinned to ``cpu``, count iterations over the
+    *same* ``seconds``-long window of CLOCK_MONOTONIC (both are set up and asleep before it
+    opens). On a CPU that confines them the priority 10 one counts nearly nothing while the
+    other spins. Returns (confined, the low one's count relative to the high one's). Some
+    virtual machines run both in parallel anyway; then no experiment on one "core" can show
+    preemption or inversion. (Timing each over its own window, as this function once did, lets
+    the low one run after the high one ends and always reads as "not confined".)
     """
     ok, why = available()
     if not ok:
@@ -127,7 +144,9 @@ def pinning_confines(cpu: int | None = None, seconds: float = 0.2) -> tuple[bool
     cpu = sorted(os.sched_getaffinity(0))[-1] if cpu is None else cpu
     ctx = multiprocessing.get_context("fork")
     q = ctx.Queue()
-    procs = [ctx.Process(target=_progress, args=(cpu, prio, seconds, q), daemon=True) for prio in (50, 10)]
+    start = time.monotonic() + 0.1     # time for both children to start, pin and sleep
+    procs = [ctx.Process(target=_progress, args=(cpu, prio, start, start + seconds, q), daemon=True)
+             for prio in (50, 10)]
     for p in procs:
         p.start()
     got = dict(q.get(timeout=30) for _ in procs)
@@ -145,6 +164,7 @@ class InversionRun:
     medium: bool
     access_ns: np.ndarray
     latency_ns: np.ndarray
+    bursts: int = 0        # how many bursts the medium hog spun while the loop ran
 
     def summary(self) -> str:
         a = self.access_ns / 1e3
@@ -170,12 +190,17 @@ def available(cpu: int | None = None) -> tuple[bool, str]:
 
 
 def measure(mode: str, medium: bool = True, iterations: int = 1000, cpu: int | None = None,
-            hold_s: float = 0.002, rest_s: float = 0.003, burst_s: float = 0.02, gap_s: float = 0.03,
-            priorities: tuple[int, int, int] = (10, 50, 80)) -> InversionRun:
+            hold_s: float = 0.002, rest_s: float = 0.003, burst_s: float = 0.01, gap_s: float = 0.02,
+            priorities: tuple[int, int, int] = (10, 50, 80), seed: int = 0) -> InversionRun:
     """Run the high priority 1 kHz loop for ``iterations`` against the low writer (and the medium hog).
 
     ``access_ns[k]`` is how long iteration k took to get the current value (lock, read, unlock;
     or the lock-free read). All three actors are pinned to ``cpu`` (default: the last allowed).
+    The writer holds the value ``hold_s`` then rests ``rest_s``; the hog spins ``burst_s`` then
+    sleeps ``gap_s`` plus a random part of one writer cycle (``random.Random(seed)``), so each
+    burst starts inside a hold with probability ``hold_s / (hold_s + rest_s)``. The defaults
+    keep the three real-time tasks under the kernel's real-time share (``sched_rt_runtime_us``,
+    95 % by default), so RT throttling does not stall the experiment.
     """
     from .loop import PeriodicLoop
     from .settings import current_scheduling, reset_scheduling
@@ -200,7 +225,8 @@ def measure(mode: str, medium: bool = True, iterations: int = 1000, cpu: int | N
     stop = ctx.Event()
     procs = [ctx.Process(target=_low, args=(buf, mode, cpu, low_p, hold_s, rest_s, stop), daemon=True)]
     if medium:
-        procs.append(ctx.Process(target=_medium, args=(cpu, mid_p, burst_s, gap_s, stop), daemon=True))
+        procs.append(ctx.Process(target=_medium, args=(buf, cpu, mid_p, burst_s, gap_s, hold_s + rest_s, seed, stop),
+                                 daemon=True))
     old_aff = os.sched_getaffinity(0)
     old_sched = current_scheduling()
     access = np.zeros(iterations, dtype=np.int64)
@@ -224,7 +250,9 @@ def measure(mode: str, medium: bool = True, iterations: int = 1000, cpu: int | N
             p.start()
         _pin_and_prioritise(cpu, high_p)
         time.sleep(0.05)  # let the writer and the hog settle into their pattern
+        bursts0 = struct.unpack_from("q", buf, _BURSTS)[0]
         result = PeriodicLoop(1_000_000, iterations).run(read)
+        bursts = struct.unpack_from("q", buf, _BURSTS)[0] - bursts0
     finally:
         reset_scheduling(*old_sched)
         os.sched_setaffinity(0, old_aff)
@@ -236,4 +264,4 @@ def measure(mode: str, medium: bool = True, iterations: int = 1000, cpu: int | N
                 p.join(timeout=1.0)
     if last[0] <= 0:
         raise RuntimeError("the high priority loop never saw a value from the writer")
-    return InversionRun(mode, medium, access, result.latency_ns)
+    return InversionRun(mode, medium, access, result.latency_ns, bursts)

@@ -85,7 +85,7 @@ class InterfaceGroup:
         if self.view is not None:
             out[:] = self.view
         elif self.array is not None:
-            np.take(self.array, self.index, out=out)
+            np.take(self.array, self.index, out=out, mode="clip")   # mode='raise' would buffer out= anew
         else:
             for k, loan in enumerate(self.loans):
                 out[k] = loan.array[loan.index]

@@ -259,6 +259,11 @@ class ResourceManager:
         arr, i = self._state_map[key] if key in self._state_map else self._command_map[key]
         return float(arr[i])
 
+    def command_value(self, key: str) -> float:
+        """Current value of a command (or controller reference) interface."""
+        arr, i = self._command_map[key]
+        return float(arr[i])
+
     # --- claims ------------------------------------------------------------------------------------
     def claim_state_interface(self, key: str) -> LoanedStateInterface:
         if key not in self._state_map:

@@ -287,7 +287,10 @@ class RobotSim:
         if np.any(half <= 0) or not 0 < obj.mass < 100:
             raise ValueError(f"{obj!r}: half_size must be > 0 and mass in (0, 100) kg")
         m, (a, b, c) = float(obj.mass), 2 * half  # the URDF turns inertiafromgeom off: give it here
-        body = spec.worldbody.add_body(name="object", pos=pos, mass=m,
+        # ipos/iquat explicitly: left unset (MjSpec's NaN "unspecified"), the compiled centre of mass
+        # landed at twice ``pos`` from the origin, and the box hopped and spun on a table by itself
+        body = spec.worldbody.add_body(name="object", pos=pos, mass=m, ipos=[0.0, 0.0, 0.0], iquat=[1.0, 0.0, 0.0, 0.0],
+                                       explicitinertial=True,
                                        inertia=[m * (b * b + c * c) / 12, m * (a * a + c * c) / 12, m * (a * a + b * b) / 12])
         body.add_freejoint(name="object")
         body.add_geom(name="object", type=mujoco.mjtGeom.mjGEOM_BOX, size=half,
@@ -433,15 +436,18 @@ class RobotSim:
         rot = self.data.xmat[b].reshape(3, 3)
         return float(self.model.body_subtreemass[b]), rot.T @ (self.data.subtree_com[b] - self.data.xpos[b])
 
+    def _geom_id(self, geom: str) -> int:
+        try:
+            return self.model.geom(geom).id
+        except KeyError:
+            raise ValueError(f"no geom {geom!r} in this simulation (a Wall is named 'wall', "
+                             "a GraspObject 'object')") from None
+
     def contact_force(self, geom: str = "wall") -> np.ndarray:
         """Total contact force (N, world frame) that everything touching ``geom`` exerts on it,
         e.g. how hard the gripper pushes on the wall. A new array."""
         mj, m, d = self._mj, self.model, self.data
-        try:
-            gid = m.geom(geom).id
-        except KeyError:
-            raise ValueError(f"no geom {geom!r} in this simulation (a Wall is named 'wall', "
-                             "a GraspObject 'object')") from None
+        gid = self._geom_id(geom)
         total = np.zeros(3)
         for k in range(d.ncon):
             c = d.contact[k]
@@ -451,6 +457,18 @@ class RobotSim:
             f = c.frame.reshape(3, 3).T @ self._contact_wrench[:3]  # force on geom2, world frame
             total += f if c.geom2 == gid else -f
         return total
+
+    def touching(self, geom: str = "wall") -> list[str]:
+        """Names of the geoms in contact with ``geom`` now ("left_finger/0", ...), sorted, each once."""
+        mj, m, d = self._mj, self.model, self.data
+        gid = self._geom_id(geom)
+        names = set()
+        for k in range(d.ncon):
+            c = d.contact[k]
+            if gid in (c.geom1, c.geom2):
+                other = c.geom2 if c.geom1 == gid else c.geom1
+                names.add(mj.mj_id2name(m, mj.mjtObj.mjOBJ_GEOM, other) or f"geom{other}")
+        return sorted(names)
 
     def link_pose(self, link: str) -> tuple[np.ndarray, np.ndarray]:
         """World position (m) and 3x3 rotation of a URDF link's frame (copies)."""
