@@ -1160,10 +1160,13 @@ def _ctrl_period(inputs, out):
     step = inputs["max_velocity"] / inputs["slow_rate"]
     rows = np.asarray(rows, dtype=float)
     moves = np.abs(np.diff(rows, axis=0))      # from its first update on: where it started is the activation's business
+    if not (moves > 1e-12).any():
+        raise CheckFailed(f"with update_rate: {inputs['slow_rate']} and a target {inputs['target1']} the commands "
+                          f"never moved after the first update: {_row(rows, 0)}")
     for j, name in enumerate(inputs["joints"]):
         steps = moves[:, j][moves[:, j] > 1e-12]
         # a slew at max_velocity: every step the same, period x max_velocity, but the last one (which lands)
-        if len(steps) == 0 or np.any(np.abs(steps[:-1] - step) > 1e-9) or steps[-1] > step + 1e-9:
+        if len(steps) and (np.any(np.abs(steps[:-1] - step) > 1e-9) or steps[-1] > step + 1e-9):
             raise CheckFailed(f"Use the period argument, not a fixed step: with update_rate: {inputs['slow_rate']} under "
                               f"a 100 Hz manager, update() runs every {100 // inputs['slow_rate']} cycles with period "
                               f"{1 / inputs['slow_rate']:g} s, so {name} moves {step:.4g} rad per update; it moved "

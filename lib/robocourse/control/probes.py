@@ -480,8 +480,9 @@ def _ctrl_targets(cm, pub, inputs, bad: bool):
     return track, rows
 
 
-#: cycles at 100 Hz to follow target 1: enough to reach it from anywhere in reach (0.6 rad at 0.3 rad/s)
-TRACK_CYCLES = 250
+#: cycles at 100 Hz to follow target 1: enough to reach it even from 0 rad, where a controller that forgot the
+#: state starts (a target is at most 1.6 rad from 0; max_velocity is at least 0.3 rad/s)
+TRACK_CYCLES = 560
 
 
 def controller_probe(inputs, SlewRateController):
