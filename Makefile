@@ -11,10 +11,12 @@ STAMP  := $(VENV)/.robocourse-installed
 KERNEL := robocourse
 LAB_FLAGS ?=
 # the lab's settings live in the venv, never in your home (robocourse/cli/lab.py says what each does)
-LAB_CONF := $(VENV)/etc/jupyter/jupyter_server_config.json
 PYTEST_FLAGS ?=
+# parallel workers for make test (pytest-xdist, scheduled by xdist group: tests/conftest.py);
+# TEST_JOBS=0 runs everything in this process
+TEST_JOBS ?= 3
 
-.PHONY: lab test setup kernel exercises lint clean
+.PHONY: lab lab-user test setup kernel exercises lint clean
 
 setup: $(STAMP)
 
@@ -30,14 +32,23 @@ $(STAMP): requirements.txt pyproject.toml
 
 kernel: $(STAMP)
 
-$(LAB_CONF): $(STAMP) lib/robocourse/cli/lab.py
+# the lab's settings are rewritten at every start (about a second): they depend on where Jupyter's
+# runtime folder is now (kernel sockets live there), and a student's saved layout is kept
+lab: lab-user $(STAMP)
 	$(VENV)/bin/robocourse lab-settings --root . --prefix $(VENV) > /dev/null
-
-lab: $(LAB_CONF)
 	$(VENV)/bin/jupyter lab $(LAB_FLAGS)
 
+# Jupyter refuses to start as root without --allow-root: say why and what to do before any set-up runs
+lab-user:
+	@if [ "$$(id -u)" = 0 ] && ! printf '%s' "$(LAB_FLAGS)" | grep -Eq -- '--allow-root|allow_root'; then \
+	  echo "make lab: you are root (uid 0), and Jupyter refuses to run as root: every notebook would run with root's" >&2; \
+	  echo "  powers. Run make lab as your own user; in a container where root is the only user, say so:" >&2; \
+	  echo "  make lab LAB_FLAGS=--allow-root" >&2; \
+	  exit 2; \
+	fi
+
 test: $(STAMP)
-	$(PY) -X faulthandler -m pytest $(PYTEST_FLAGS)
+	$(PY) -X faulthandler -m pytest -n $(TEST_JOBS) --dist loadgroup --no-loadscope-reorder $(PYTEST_FLAGS)
 
 exercises: $(STAMP)
 	$(VENV)/bin/robocourse exercises build

@@ -1,6 +1,7 @@
-"""The Franka-style 1 kHz loop's round trip and command success rate, beside a UDP echo floor.
+"""The Franka-style 1 kHz loop's round trip and command success rate, beside a UDP echo floor; the
+UR-style box through ur_rtde (receive rate and jitter, servoJ round trip, start-up) beside its floor.
 
-    PYTHONPATH=lib python benchmarks/driver_roundtrip.py [--seconds 2] [--rounds 3] [--quick]
+    PYTHONPATH=lib python benchmarks/driver_roundtrip.py [--seconds 2] [--rounds 3] [--quick] [--only ur|franka]
 
 Rows, each a fresh box process and a client loop in this process (read the state, answer with
 the measured position) for ``--seconds``:
@@ -62,9 +63,12 @@ def main(argv=None) -> int:
     ap.add_argument("--seconds", type=float, default=2.0)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="1 s, 1 round")
+    ap.add_argument("--only", choices=("franka", "ur"), help="run one driver's rows")
     a = ap.parse_args(argv)
     if a.quick:
         a.seconds, a.rounds = 1.0, 1
+    if a.only == "ur":
+        return ur_rows(a)
     probe = set_scheduling("fifo", quiet=True)
     rt_ok = probe.ok
     reset_scheduling()
@@ -108,6 +112,57 @@ def main(argv=None) -> int:
     print(f"runs where >{LIMIT} ticks in a row were missed (a real robot would have stopped): "
           + (", ".join(broke) if broke else "none"))
     print("ratio xN = franka p99 / UDP echo p99 under the same load and settings (the physics' and protocol's cost)")
+    return 0 if a.only == "franka" else ur_rows(a)
+
+
+def ur_rows(a) -> int:
+    """The UR-style box through ur_rtde (robocourse.drivers.ur_measure), each row beside the same box
+    with no arm behind it (the floor: protocol, processes and scheduling only), idle and under load."""
+    from robocourse.drivers import ur_measure as um
+
+    try:
+        import rtde_receive  # noqa: F401
+    except ImportError:
+        print("\nUR rows skipped: ur-rtde is not installed (Linux x86_64, CPython <= 3.12)")
+        return 0
+    print(f"\nUR-style box through ur_rtde 1.6.5: {a.rounds} round(s), {a.seconds:g} s each; median [min-max]")
+    rate, rtt, start = {}, {}, {}
+    configs = [(ld, rt, phys) for ld in ("idle", "load1") for rt in (False, True) for phys in (False, True)]
+    for r in range(a.rounds):
+        for c in configs:            # interleaved, as above
+            ld, rt, phys = c
+            with load(ld):
+                rate.setdefault(c, []).append(um.receive_rate(a.seconds, physics=phys, realtime=rt))
+                rtt.setdefault(c, []).append(um.servoj_round_trip(int(250 * a.seconds), physics=phys, realtime=rt))
+        for phys in (False, True):
+            start.setdefault(phys, []).append(um.startup(physics=phys))
+        start.setdefault("python", []).append(um.interpreter_startup())
+        print(f"UR round {r + 1}/{a.rounds} done", flush=True)
+    print(f"{'load':<24}{'RT':<4}{'box':<7}{'receive Hz':>20}{'ticks got %':>13}{'jitter p99 us':>22}"
+          f"{'servoJ rtt p50 us':>24}{'p99 us':>9}{'x floor':>9}")
+    for c in configs:
+        ld, rt, phys = c
+        rs, ts = rate[c], rtt[c]
+        hz, share, jit = (med([getattr(x, f) for x in rs]) for f in ("rate_hz", "ticks_share", "jitter_p99_us"))
+        p50, p99 = (med([getattr(x, f) for x in ts]) for f in ("p50_us", "p99_us"))
+        floor = med([x.p50_us for x in rtt[(ld, rt, False)]])[0]
+        ratio = f"x{p50[0] / floor:.2f}" if phys else ""
+        print(f"{LOADS[ld]:<24}{'yes' if rt else 'no':<4}{'UR5e' if phys else 'floor':<7}"
+              f"{hz[0]:>7.1f} [{hz[1]:>4.0f}-{hz[2]:<4.0f}]{100 * share[0]:>11.1f}  "
+              f"{jit[0]:>8.0f} [{jit[1]:>5.0f}-{jit[2]:<5.0f}]"
+              f"{p50[0]:>10.0f} [{p50[1]:>5.0f}-{p50[2]:<5.0f}]{p99[0]:>8.0f}{ratio:>9}")
+    st = {k: med(v) for k, v in start.items()}
+    print(f"start to first RTDE package: UR5e box {st[True][0]:.2f} s [{st[True][1]:.2f}-{st[True][2]:.2f}], "
+          f"floor box {st[False][0]:.2f} s, `python -c 'import numpy, mujoco'` {st['python'][0]:.2f} s "
+          f"(the UR5e box x{st[True][0] / st['python'][0]:.1f} that)")
+    idle_hz = med([x.rate_hz for x in rate[("idle", False, True)]])[0]
+    ok_rate = abs(idle_hz - 500.0) <= 5.0
+    print(f"goal: receive rate 500 Hz +- 1 % idle: median {idle_hz:.1f} Hz -> {'MET' if ok_rate else 'NOT MET'}; "
+          f"box ready in < 1 s: median {st[True][0]:.2f} s -> {'MET' if st[True][0] < 1.0 else 'NOT MET'} (this run)")
+    print("RT = the box and ur_rtde's threads try SCHED_FIFO (refused without permission: then as 'no'); "
+          "receive Hz = packages ur_rtde's receive thread recorded per wall second; ticks got = those packages / "
+          "the controller ticks they span; jitter = |arrival interval - 2 ms| at a plain socket client on the same "
+          "box; servoJ rtt = servoJ() call to the first state whose target_q moved; x floor = UR5e / floor p50")
     return 0
 
 

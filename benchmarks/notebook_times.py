@@ -8,19 +8,23 @@ kernel over IPC (``robocourse.notebook.run``). Repeats are interleaved (every no
 then again), so a burst of someone else's work lands on one repeat of several notebooks rather
 than on every repeat of one. The machine is shared: read the spread, not only the median.
 ``--load`` runs every repeat with chapter 1's disturbance (``CpuLoad(processes=2)``, two busy
-processes on the last allowed CPU), as the under-load test does.
+processes on the last allowed CPU), as the under-load test does. ``--claims DIR`` writes the
+claims each notebook rendered in its last repeat (``robocourse.notebook.claim``: what was
+measured, the verdict, the sentence) to ``DIR/<notebook>.<quiet|loaded>.json``.
 
-    .venv/bin/python benchmarks/notebook_times.py [--repeats 3] [--load] [chapters/01_realtime_basics.ipynb ...]
+    .venv/bin/python benchmarks/notebook_times.py [--repeats 3] [--load] [--claims DIR] [chapters/01_realtime_basics.ipynb ...]
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import statistics
 import sys
 from pathlib import Path
 
+from robocourse.notebook.claims import recorded_claims
 from robocourse.notebook.run import execute
 from robocourse.rt.disturb import CpuLoad
 
@@ -34,6 +38,7 @@ def main(argv=None) -> int:
                     help="notebooks to time (default: chapters/*.ipynb and solutions/*.ipynb)")
     ap.add_argument("--repeats", type=int, default=3, help="runs of each notebook (default 3)")
     ap.add_argument("--load", action="store_true", help="run under chapter 1's CPU load (two busy processes)")
+    ap.add_argument("--claims", type=Path, metavar="DIR", help="write each notebook's rendered claims there (JSON)")
     args = ap.parse_args(argv)
     if args.repeats < 1:
         ap.error(f"--repeats {args.repeats}: run each notebook at least once, e.g. --repeats 3")
@@ -50,11 +55,16 @@ def main(argv=None) -> int:
             load = CpuLoad(processes=2) if args.load else contextlib.nullcontext()
             try:
                 with load:
-                    _, seconds = execute(p, env={"ROBOCOURSE_TEST": "1"})
+                    ran, seconds = execute(p, env={"ROBOCOURSE_TEST": "1"})
             except Exception as exc:  # a failing notebook is reported, the others still timed
                 failed[p] = f"{type(exc).__name__}: {str(exc).strip().splitlines()[-1] if str(exc).strip() else ''}"
                 continue
             times[p].append(seconds)
+            if args.claims is not None:
+                args.claims.mkdir(parents=True, exist_ok=True)
+                rows = [{k: rec[k] for k in ("what", "verdict", "text")} for rec in recorded_claims(ran)]
+                (args.claims / f"{p.stem}.{'loaded' if args.load else 'quiet'}.json").write_text(
+                    json.dumps(rows, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
             print(f"repeat {r + 1}/{args.repeats}: {p.relative_to(ROOT) if p.is_absolute() else p} {seconds:.1f} s",
                   file=sys.stderr)
     width = max(len(str(p.relative_to(ROOT) if p.is_absolute() else p)) for p in paths)

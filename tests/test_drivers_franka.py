@@ -24,6 +24,10 @@ from robocourse.drivers.franka_client import (
     Torques,
 )
 
+# the box runs libfranka's 1 kHz protocol: a missed tick is a communication reflex, so these
+# run alone (tests/conftest.py: serial)
+pytestmark = pytest.mark.serial
+
 LENIENT = 100_000   # missed ticks in a row before the reflex, when a test is not about the reflex
 
 

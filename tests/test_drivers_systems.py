@@ -19,6 +19,9 @@ from robocourse.control.bringup import bringup
 from robocourse.control.hardware.types import ACTIVE, INACTIVE, UNCONFIGURED
 from robocourse.control.log import LogSink
 
+# ros2_control loops driving the 1 kHz / 500 Hz boxes: these run alone (tests/conftest.py: serial)
+pytestmark = pytest.mark.serial
+
 SPAWN = ["joint_state_broadcaster", "forward_position_controller"]
 
 

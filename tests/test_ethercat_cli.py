@@ -63,8 +63,14 @@ def test_unprivileged_raw_socket_says_how_to_grant_it(monkeypatch):
         raise PermissionError(1, "Operation not permitted")
 
     monkeypatch.setattr(socket, "socket", refuse)
-    with pytest.raises(PermissionError, match="needs CAP_NET_RAW.*setcap cap_net_raw"):
+    with pytest.raises(PermissionError) as info:
         transport.open_raw("eth0")
+    text = str(info.value)
+    assert "'eth0' needs CAP_NET_RAW" in text and "run the master as root" in text
+    # issue 25: never setcap the base interpreter (every Python script would get the capability):
+    # only a copied venv interpreter, as the README and chapter 1 teach
+    assert "readlink" not in text and "$(which python3)" not in text
+    assert "sudo setcap cap_net_raw+ep .venv-rt/bin/python3" in text or "for this copied venv interpreter" in text
 
 
 def test_veth_test_reason_names_root_when_unprivileged(monkeypatch):

@@ -86,7 +86,7 @@ def test_teleop_default_and_bad_setpoint(capsys):
     ctx = Context(use_sim_time=True)
     demo.teleop(ctx)
     assert demo.TELEOP_DEFAULT_TEXT in capsys.readouterr().out
-    with pytest.raises(ValueError, match="not a finite angle"):
+    with pytest.raises(ValueError, match="setpoint=nan: an angle in radians from the ground, finite"):
         demo.teleop(ctx, float("nan"), verbose=False)
     ctx.shutdown()
 

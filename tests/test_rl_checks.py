@@ -1,4 +1,11 @@
-"""Chapter 6's graded checks: the solution notebook's code scores full marks, typical mistakes score zero."""
+"""Chapter 6's checks in the student's own kernel: what the bank (tests/banks/ch06.py) cannot show.
+
+The bank grades plausible wrong answers through the sandbox with their partial scores. Here: the
+notebook calls every check in order; a malformed return fails with the form it needed; an answer
+that raises is told once, in every sub-test; the deployment loop's scripted arm and the judge's
+reading of it (which state a target came from) are right on their own; the same seed draws the
+same inputs.
+"""
 
 from pathlib import Path
 
@@ -8,85 +15,98 @@ import pytest
 
 from robocourse.grading import discover, exercises
 from robocourse.grading.checks import get, run_check
+from robocourse.rl.scripted import ScriptedArm
 
 ROOT = Path(__file__).resolve().parents[1]
 SOL = ROOT / "solutions/06_policy_deployment_exercises.ipynb"
+JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
 
 
-@pytest.fixture(scope="module")
-def solution():
+@pytest.fixture(scope="module", autouse=True)
+def checks():
     discover()
-    ns = {"np": np}
-    for cell in nbformat.read(SOL, as_version=4).cells:
-        if cell.cell_type == "code" and cell.source.lstrip().startswith(("def ", "class ")):
-            exec(cell.source, ns)
-    return ns
 
 
-def test_every_check_of_ch06_is_called_in_the_exercises():
-    assert exercises.checks_in(nbformat.read(SOL, as_version=4)) == ["ch06.fold_normalizer", "ch06.ema_clip",
-                                                                    "ch06.bridge_timeout", "ch06.observation"]
+def test_every_check_of_ch06_is_called_in_the_exercises_in_order():
+    assert exercises.checks_in(nbformat.read(SOL, as_version=4)) == [
+        "ch06.fold_normalizer", "ch06.ema_clip", "ch06.bridge_timeout", "ch06.observation", "ch06.deployment_loop"]
 
 
-@pytest.mark.parametrize("name,obj", [("ch06.fold_normalizer", "fold_normalizer"), ("ch06.ema_clip", "ema_clip"),
-                                      ("ch06.bridge_timeout", "MiniBridge"), ("ch06.observation", "reach_observation")])
-def test_solutions_score_full_marks(solution, name, obj):
-    for seed in range(3):
-        r = run_check(get(name), solution[obj], rng=np.random.default_rng(seed))
-        assert r.passed and r.points == r.weight, r.message
+def test_an_observation_of_the_wrong_form_fails_every_sub_test_with_the_form_needed():
+    r = run_check(get("ch06.observation"), lambda *a: {"q": 1}, seed=3)
+    assert r.points == 0 and r.reason == "malformed" and "array" in r.message
 
 
-def test_fold_dividing_rows_or_forgetting_the_bias_scores_zero(solution):
-    def forgot_bias(W, b, mean, std, eps):
-        return W / (std + eps), b
+def test_an_observation_that_raises_is_told_with_the_message():
+    def broken(joint_state, joint_order, *rest):
+        return np.array([joint_state.position[joint_state.name.index(j)] for j in joint_order] + [None])
 
-    r = run_check(get("ch06.fold_normalizer"), forgot_bias, rng=np.random.default_rng(0))
-    assert not r.passed and r.points == 0 and "b - W' @ mean" in r.message
-
-
-def test_ema_with_alpha_on_the_new_value_or_clipped_state_scores_zero(solution):
-    def swapped(action, y_prev, default, scale, alpha, lower, upper):
-        return solution["ema_clip"](action, y_prev, default, scale, 1 - alpha, lower, upper)
-
-    def clipped_state(action, y_prev, default, scale, alpha, lower, upper):
-        y, target, n = solution["ema_clip"](action, y_prev, default, scale, alpha, lower, upper)
-        return target, target, n
-
-    for wrong in (swapped, clipped_state):
-        r = run_check(get("ch06.ema_clip"), wrong, rng=np.random.default_rng(1))
-        assert not r.passed and r.points == 0, wrong.__name__
+    r = run_check(get("ch06.observation"), broken, seed=3)
+    assert r.points == 0 and all(not s["passed"] for s in r.subtests)
 
 
-def test_bridge_without_recovery_rule_or_dimension_check_scores_zero(solution):
-    Good = solution["MiniBridge"]
-
-    class NoDimensionCheck(Good):
-        def submit(self, targets, now):
-            self.target, self.received = np.resize(np.asarray(targets, dtype=float), self.n), now
-            self.n_accepted += 1
-            return True
-
-    class NeverTimesOut(Good):
-        def update(self, now, q):
-            return ("run", self.target) if self.target is not None else ("hold", np.asarray(q))
-
-    for wrong in (NoDimensionCheck, NeverTimesOut):
-        r = run_check(get("ch06.bridge_timeout"), wrong, rng=np.random.default_rng(2))
-        assert not r.passed and r.points == 0, wrong.__name__
+def test_same_seed_same_draws_and_the_seed_is_shown():
+    a, b = (get("ch06.deployment_loop").make_inputs(np.random.default_rng(7)) for _ in range(2))
+    assert a == b and a["spec"]["decimation"] in (4, 5) and a["spec"]["timeout"] in (0.2, 0.3)
+    assert sorted(a["spec"]["policy_joints"]) == sorted(JOINTS) and len(a["state_names"]) == 8
+    assert np.all(np.array(a["W"])[:, 15:] == 0)       # the grader's policy ignores the last action
 
 
-def test_delegating_to_the_library_scores_zero():
-    from robocourse.rl.export import fold_normalizer
+def test_scripted_arm_serves_ticks_on_its_trajectory_and_records_commands():
+    names = sorted(JOINTS + ["finger_joint"])
+    arm = ScriptedArm(JOINTS, names, list(reversed(JOINTS)), rate_hz=200.0, max_ticks=5, seed=1)
+    got = []
+    while (msg := arm.wait_for_tick()) is not None:
+        got.append(msg)
+        arm.command(arm.joint_positions(arm.k, arm.command_joints))
+    assert len(got) == 5 and got[0].name == names and got[3].header.stamp.nanosec == 15_000_000
+    q, dq = arm.state(3)
+    np.testing.assert_allclose(got[3].position, q)
+    assert got[3].position[names.index("finger_joint")] == arm.state(0)[0][names.index("finger_joint")]  # still
+    rec = arm.record()
+    assert rec["ticks"] == 5 and sorted(rec["commands"]) == ["0", "1", "2", "3", "4"] and rec["bad_commands"] == []
+    assert rec["served"][0][2] > 0 and rec["served"][4][1] - rec["served"][0][1] == pytest.approx(0.02, abs=0.015)
+    arm2 = ScriptedArm(JOINTS, names, JOINTS, max_ticks=3)
+    arm2.command([0.0] * 6)
+    arm2.wait_for_tick()
+    arm2.command([0.0] * 5)
+    arm2.command([float("nan")] * 6)
+    assert len(arm2.bad_commands) == 3 and "before the first" in arm2.bad_commands[0]
+    with pytest.raises(ValueError, match="permutation of the joints"):
+        ScriptedArm(JOINTS, names, JOINTS[:5])
 
-    discover()
-    r = run_check(get("ch06.fold_normalizer"), fold_normalizer, rng=np.random.default_rng(0))
-    assert not r.passed and r.points == 0
+
+def test_scripted_arm_stops_when_asked():
+    arm = ScriptedArm(JOINTS, JOINTS, JOINTS, rate_hz=500.0, max_ticks=100, stop_when=lambda a: a.k >= 19,
+                      check_every=10)
+    n = 0
+    while arm.wait_for_tick() is not None:
+        n += 1
+    assert n == 20 and arm.record()["stopped_early"]
 
 
-def test_observation_with_swapped_blocks_scores_zero_naming_the_block(solution):
-    def swapped(q, dq, target, last_action, default_pose, tcp_default, dof_vel_scale):
-        return np.concatenate([np.asarray(dq) * dof_vel_scale, np.asarray(q) - default_pose,
-                               np.asarray(target) - tcp_default, last_action])
+def test_the_judge_finds_which_state_each_target_came_from_and_names_an_index_read():
+    from robocourse.rl import checks
 
-    r = run_check(get("ch06.observation"), swapped, rng=np.random.default_rng(0))
-    assert not r.passed and r.points == 0 and "entries 0..5 should be q - default_pose" in r.message
+    inputs = get("ch06.deployment_loop").make_inputs(np.random.default_rng(2))
+    arm = ScriptedArm(inputs["joints"], inputs["state_names"], inputs["spec"]["command_joints"], 100.0, 200,
+                      seed=inputs["trajectory_seed"])
+    out = {"returned": True, "error": None, "arm": {"ticks": 60, "commands": {}, "served": []}, "calls": []}
+    d = checks._Deployment(inputs, {**out, "arm": {**out["arm"], "commands": {}}})
+    last = np.zeros(6)
+
+    def commands(by_index):                              # hold q(0), then a target every 4 ticks from a state
+        cmd, out = arm.joint_positions(0, arm.command_joints), {}   # 2 ticks old, held in between
+        for k in range(60):
+            if k % 4 == 0 and k:
+                cmd = d.targets_of(d.actions(np.array([k - 2]), last, by_index=by_index))[0]
+            out[str(k)] = cmd
+        return out
+
+    out["arm"]["commands"] = commands(False)
+    d = checks._Deployment(inputs, out)
+    assert [e[0] for e in d.events][:3] == ["hold", "target", "target"] and {e[2] for e in d.targets()} == {2}
+    assert len(d.targets()) == 14 and not d.unexplained and not d.misread
+    out["arm"]["commands"] = commands(True)
+    d = checks._Deployment(inputs, out)
+    assert d.misread and d.misread[0][0] == "index" and not d.unexplained

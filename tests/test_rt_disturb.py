@@ -25,7 +25,10 @@ def test_cpu_load_pins_busy_processes_and_cleans_up():
     with CpuLoad(cpu=cpu, processes=2) as load:
         pids = load.pids
         assert len(pids) == 2
-        time.sleep(0.2)
+        # each child pins itself as it starts: wait for that (a loaded machine starts them late)
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and any(os.sched_getaffinity(p) != {cpu} for p in pids):
+            time.sleep(0.05)
         for pid in pids:
             assert os.sched_getaffinity(pid) == {cpu}
             with open(f"/proc/{pid}/stat") as fh:
@@ -72,3 +75,22 @@ def test_chain_calls_all_and_passes_stop():
     cb = chain(lambda t: calls.append(1), lambda t: STOP if t.iteration == 2 else None)
     r = PeriodicLoop(1_000_000, 10, wait=Sleep(), clock=FakeClock(), pagefaults=False).run(cb)
     assert r.iterations == 3 and len(calls) == 3
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="needs SCHED_FIFO (root or rtprio in limits.conf) to start from an RT parent")
+def test_cpu_load_started_from_a_fifo_process_runs_sched_other(tmp_path):
+    # A benchmark with its RT settings on (SCHED_FIFO) starts CpuLoad: the busy children must not
+    # inherit FIFO, or they starve every other process on their CPU (seen: two FIFO 99 hogs).
+    import subprocess
+    import sys
+
+    script = (
+        "import os, time\n"
+        "from robocourse.rt.disturb import CpuLoad\n"
+        "os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(10))\n"
+        "with CpuLoad(processes=1) as load:\n"
+        "    time.sleep(0.3)\n"
+        "    print(os.sched_getscheduler(load.pids[0]) == os.SCHED_OTHER, os.sched_getscheduler(0) == os.SCHED_FIFO)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=30)
+    assert out.stdout.split() == ["True", "True"], out.stderr

@@ -421,7 +421,8 @@ def release(target: Path | str, root: Path | str = ".", force: bool = False,
 
     ``target`` must be outside the course folder and empty, unless ``force``: then the files of
     the previous edition (listed in its ``.robocourse-edition.json``) are removed first and
-    everything else in ``target`` (a ``.git`` folder, say) is kept.
+    everything else in ``target`` (a ``.git`` folder, say) is kept. ``force`` on a folder that is
+    not an edition (no marker file, entries besides ``.git``) is refused before anything is written.
     """
     root, target = Path(root).resolve(), Path(target).resolve()
     if _inside(target, root):
@@ -436,6 +437,11 @@ def release(target: Path | str, root: Path | str = ".", force: bool = False,
     if existing and not force:
         raise ValueError(f"{target} is not empty ({len(existing)} entries, e.g. {existing[0]!r}); "
                          "choose an empty folder, or pass --force to replace a previous edition there")
+    foreign = [name for name in existing if name not in (MARKER_FILE, ".git")]
+    if force and foreign and not (target / MARKER_FILE).is_file():
+        raise ValueError(f"{target} holds {len(foreign)} entries (e.g. {foreign[0]!r}) but no {MARKER_FILE}: it is "
+                         "not a previous edition, and --force only replaces one (its listed files); choose an "
+                         "empty folder, or empty this one yourself if its contents can go")
     edition = plan(root, manifest)  # everything checked before anything is written
     edition.target = target
     marker = target / MARKER_FILE

@@ -56,20 +56,61 @@ def register(sub) -> None:
     v.add_argument("-t", "--controller-type")
     v.add_argument("--activate-as-group", action="store_true")
     v = s.add_parser("view", help="write an SVG picture of the system (components, interfaces, controllers, claims)")
-    v.add_argument("output", help="file to write, e.g. system.svg")
+    v.add_argument("output", nargs="?", default=None,
+                   help="SVG file to write (default: <robot>_system.svg in the current folder)")
     for verb in s.choices.values():
         _common(verb)
         verb.set_defaults(func=run)
     p.set_defaults(func=lambda args: p.print_help() or 2)
 
 
+def _check_args(args) -> str | None:
+    """The first bad argument, as 'value: rule; fix', before anything is brought up (None: all good)."""
+    from pathlib import Path
+
+    from robocourse.control.bringup import default_param_file
+    from robocourse.control.parameters import load_parameter_file, params_for
+
+    if args.urdf and not Path(args.urdf).is_file():
+        return f"--urdf {args.urdf!r}: no such file; give the path of your URDF, e.g. --urdf my_robot.urdf"
+    params = args.bringup_params or (None if args.urdf else default_param_file(args.robot))
+    if params is not None and not Path(params).is_file():
+        return f"--controllers-file {str(params)!r}: no such file; give a controller_manager parameter file"
+    if args.control_command == "view":
+        if args.output is None:
+            args.output = f"{Path(args.urdf).stem if args.urdf else args.robot}_system.svg"
+        out = Path(args.output)
+        if out.suffix.lower() != ".svg":
+            return f"output {args.output!r}: view writes an SVG picture; name the file .svg, e.g. {out.stem}.svg"
+        if out.is_dir() or not out.resolve().parent.is_dir():
+            return (f"output {args.output!r}: {'is a folder' if out.is_dir() else 'its folder does not exist'}; "
+                    f"give a file path in an existing folder, e.g. system.svg")
+    # the bring-up's controllers (what a launch file spawns); the verbs themselves (load_controller,
+    # spawner) answer an unknown name as ros2 control does: an error line and exit code 1
+    wanted = [("--spawn", n) for n in args.spawn] + [("--spawn-inactive", n) for n in args.spawn_inactive]
+    if wanted and params is not None:
+        declared = sorted(k[:-len(".type")] for k in params_for(load_parameter_file(params), "controller_manager")
+                          if k.endswith(".type"))
+        for flag, name in wanted:
+            if name not in declared:
+                return (f"{flag} {name!r}: no such controller in {params} (a controller needs a '<name>.type' "
+                        f"under controller_manager's ros__parameters); declared there: "
+                        f"{', '.join(declared) or 'none'}; spawn one of them, or add it to the file")
+    return None
+
+
 def run(args) -> int:
+    import sys
     from pathlib import Path
 
     from robocourse.control import introspection as ic
     from robocourse.control.bringup import bringup
     from robocourse.control.log import LogSink
 
+    problem = _check_args(args)
+    if problem:
+        print(f"robocourse control {args.control_command}: error: {problem}", file=sys.stderr)
+        return 2
     urdf = Path(args.urdf).read_text() if args.urdf else None
     cm = bringup(args.robot, urdf=urdf, plugin=args.plugin, param_file=args.bringup_params, spawn=args.spawn,
                  inactive=args.spawn_inactive, log=LogSink(log_to_stderr=False))
@@ -98,8 +139,6 @@ def run(args) -> int:
         system_picture(cm).save(args.output)
         print(f"wrote {args.output}")
     if not ok:
-        import sys
-
         for rec in cm.log.records:
             if rec.severity >= 40:
                 print(str(rec), file=sys.stderr)

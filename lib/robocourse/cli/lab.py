@@ -9,7 +9,12 @@ What a student sees when ``make lab`` opens the browser:
   without the kernel-selection dialog (``autoStartDefaultKernel``);
 - JupyterLab's "get notified about official Jupyter news?" toast and its update check are off
   (``@jupyterlab/apputils-extension:notification``: ``fetchNews: "false"``,
-  ``checkForUpdates: false``).
+  ``checkForUpdates: false``);
+- kernels talk to the server over IPC sockets (``KernelManager.transport = "ipc"``), files in
+  Jupyter's runtime folder that only this user can open, instead of TCP on loopback, which any
+  local user can connect to: the kernel's "Kernel is running over TCP without encryption"
+  warning no longer starts every session. A Unix socket path is limited to 107 bytes; when the
+  runtime folder is too deep for that, the lab keeps TCP and ``lab-settings`` says why.
 
 Everything goes under the venv's prefix (JupyterLab's *application* settings
 ``<prefix>/share/jupyter/lab/settings/overrides.json``, the server config
@@ -21,6 +26,7 @@ defaults, so a student's own choices in ``~/.jupyter/lab/user-settings`` still w
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -51,13 +57,38 @@ def workspaces_dir(prefix: Path) -> Path:
     return prefix / "share/jupyter/lab/workspaces"
 
 
-def server_config(root: Path, prefix: Path) -> dict:
-    """jupyter_server config: course folder as root, course kernel as default, workspaces in the venv."""
-    return {
+#: the longest socket path a kernel makes: <runtime>/kernel-<36-char uuid>-ipc-<port>
+_IPC_SUFFIX = len("/kernel-00000000-0000-0000-0000-000000000000-ipc-65535")
+_SUN_PATH_MAX = 107
+
+
+def ipc_transport_fits(runtime_dir: str | None = None) -> tuple[bool, str]:
+    """Can kernels use IPC sockets in Jupyter's runtime folder (a Unix socket path is at most 107 bytes)?"""
+    if runtime_dir is None:
+        from jupyter_core.paths import jupyter_runtime_dir
+
+        runtime_dir = jupyter_runtime_dir()
+    longest = len(os.fsencode(runtime_dir)) + _IPC_SUFFIX
+    if sys.platform == "win32":
+        return False, "Windows has no IPC transport for Jupyter kernels: they use TCP on loopback"
+    if longest > _SUN_PATH_MAX:
+        return False, (f"kernel sockets in {runtime_dir} would be {longest} bytes long, over the {_SUN_PATH_MAX} a "
+                       "Unix socket path allows: kernels use TCP on loopback (the kernel warns about it); set "
+                       "JUPYTER_RUNTIME_DIR to a shorter folder, e.g. /tmp/jupyter-$USER, and run make lab again")
+    return True, ""
+
+
+def server_config(root: Path, prefix: Path, ipc: bool = True) -> dict:
+    """jupyter_server config: course folder as root, course kernel as default, workspaces in the venv,
+    kernels over IPC (``ipc=False``: TCP)."""
+    config = {
         "ServerApp": {"root_dir": str(root.resolve())},
         "MappingKernelManager": {"default_kernel_name": KERNEL},
         "LabApp": {"workspaces_dir": str(workspaces_dir(prefix).resolve())},
     }
+    if ipc:
+        config["KernelManager"] = {"transport": "ipc"}
+    return config
 
 
 def default_workspace(root: Path) -> dict:
@@ -139,7 +170,11 @@ def write_settings(root: Path | str = ".", prefix: Path | str = sys.prefix, rese
     existing = json.loads(overrides.read_text(encoding="utf-8")) if overrides.is_file() else {}
     for plugin, values in OVERRIDES.items():
         existing.setdefault(plugin, {}).update(values)
-    written = [_write_json(overrides, existing), _write_json(server_config_path(prefix), server_config(root, prefix))]
+    ipc, why = ipc_transport_fits()
+    if not ipc:
+        print(f"note: {why}", file=sys.stderr)
+    written = [_write_json(overrides, existing),
+               _write_json(server_config_path(prefix), server_config(root, prefix, ipc=ipc))]
     workspace = write_default_workspace(workspaces_dir(prefix), root, reset_workspace)
     return written + ([workspace] if workspace else [])
 

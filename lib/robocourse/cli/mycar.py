@@ -15,9 +15,34 @@ def register(sub):
     p.set_defaults(func=lambda args: p.print_help() or 2)
 
 
+def _check_record(path: str | None) -> str | None:
+    """Why ``--record path`` cannot be written (None: it can), before the mission runs."""
+    import os
+
+    if path is None:
+        return None
+    if os.path.isdir(path):
+        return (f"--record {path!r}: is a folder; the recording is one MCAP file, e.g. "
+                f"--record {os.path.join(path, 'mission.mcap')}")
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        return f"--record {path!r}: the folder {folder} does not exist; create it or record elsewhere, e.g. --record mission.mcap"
+    if not os.access(folder, os.W_OK):
+        return f"--record {path!r}: the folder {folder} is not writable by you; record elsewhere, e.g. --record mission.mcap"
+    return None
+
+
 def run_demo(args) -> int:
+    import sys
+
     from robocourse.mycar.mission import run_mission
 
+    problem = _check_record(args.record)
+    if problem is None and args.config is not None and not __import__("os").path.isfile(args.config):
+        problem = f"--config {args.config!r}: no such file; give a ROS 2 parameter file (YAML), e.g. --config mycar.yaml"
+    if problem:
+        print(f"robocourse mycar demo: error: {problem}", file=sys.stderr)
+        return 2
     rep = run_mission(args.record, config=args.config)
     print("\nmission summary:")
     print(f"  LED 1 on: {rep.led_ok}; LED 7 refused: {not rep.led_invalid_ok}")
@@ -38,7 +63,7 @@ def run_teleop(args) -> int:
     from robocourse.mycar.launch import launch
     from robocourse.mycar.teleop import TeleopNode, run_terminal
 
-    car = launch(Context(), overrides={"driver_node": {"driver": "simulated"}})
+    car = launch(Context(), use_sim=False)
     teleop = TeleopNode(context=car.context)
     car.executor.add_node(teleop)
     spinner = threading.Thread(target=car.executor.spin, daemon=True)

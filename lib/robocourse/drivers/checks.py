@@ -137,7 +137,7 @@ def _count(stats, key) -> int:
 
 
 @register("ch05.franka_link", weight=3, time_limit=60, uses=("FrankaLink",), probe=_probe, inputs=_inputs,
-          references=("robocourse.drivers.franka_client:Robot",))
+          references=("robocourse.drivers.franka_client:Robot",), timing=True)
 def check_franka_link(inputs, out):
     """FrankaLink.read()/write() keep a Franka-style box moving through pauses, and see its reflex."""
     if not isinstance(out, dict):

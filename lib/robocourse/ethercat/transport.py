@@ -38,9 +38,11 @@ def open_raw(ifname: str) -> socket.socket:
     try:
         sock = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(ETHERTYPE_ECAT))
     except PermissionError as e:
+        from robocourse.rt.capabilities import setcap_advice
+
         raise PermissionError(
-            f"opening a raw socket for {ifname!r} needs CAP_NET_RAW ({e}); run as root or "
-            "grant it: sudo setcap cap_net_raw+ep $(readlink -f $(which python3))") from e
+            f"opening a raw socket for {ifname!r} needs CAP_NET_RAW ({e}): run the master as root (sudo), "
+            + setcap_advice("cap_net_raw")) from e
     try:
         sock.bind((ifname, ETHERTYPE_ECAT))
     except OSError as e:

@@ -52,8 +52,11 @@ def execute(path, *, timeout: float = 600, env: dict | None = None, kernel_name:
         try:
             client.execute()
         finally:
-            if km.has_kernel:   # nbclient leaves a kernel it was given running
-                km.shutdown_kernel(now=False)
+            if km.has_kernel:   # nbclient leaves a kernel it was given running: ask it to exit
+                # (shutdown_kernel() interrupts it first, and an idle kernel logs that as an ERROR line)
+                km.request_shutdown()
+                km.finish_shutdown()
+                km.cleanup_resources()
         return nb, time.perf_counter() - t0
     finally:
         os.environ.clear()

@@ -228,8 +228,7 @@ def teleop(context: Context, command: float | None = None, verbose: bool = True)
         if verbose:
             print(TELEOP_DEFAULT_TEXT, flush=True)
         command = math.pi / 2
-    if not math.isfinite(command):
-        raise ValueError(f"setpoint {command!r} is not a finite angle in radians; use 0..pi (pi/2 is upright)")
+    _check_angle("setpoint", command)
     node = context.create_node("pendulum_teleop")
     pub = node.create_publisher(JointCommand, "pendulum_setpoint", QOS_TELEOP)
     pub.publish(JointCommand(position=float(command)))
@@ -336,9 +335,17 @@ def run_simulated(seconds: float = 1.0, setpoint: float | None = None, initial_p
 
 
 def _check_angle(name: str, value) -> None:
+    """An angle of the seed's pendulum: radians from the ground, 0 and pi flat, pi/2 upright.
+
+    The seed's motor clamps every position to [0, pi]; a value outside would be clamped without a
+    word, so it is refused here, before anything runs."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise ValueError(f"{name}={value!r}: an angle in radians from the ground, finite; pi/2 is upright "
                          f"(the seed's convention), e.g. {name}=math.pi / 2")
+    if not 0.0 <= value <= math.pi:
+        raise ValueError(f"{name}={value!r}: the seed's angle runs from 0 to pi = {math.pi:.4f} rad (measured from "
+                         f"the ground: 0 and pi lie flat, pi/2 = {math.pi / 2:.4f} is upright) and its motor clamps "
+                         f"anything outside to that range; pick a value in it, e.g. {name}=1.3")
 
 
 @dataclass

@@ -11,6 +11,7 @@ output, and stops integrating while saturated (conditional-integration anti-wind
 from __future__ import annotations
 
 import math
+import numbers
 
 from .physics import PI
 
@@ -65,11 +66,17 @@ class TextbookPID:
 
     def __init__(self, kp: float, ki: float = 0.0, kd: float = 0.0, setpoint: float = 0.0,
                  u_min: float = -math.inf, u_max: float = math.inf, anti_windup: bool = True):
-        for name, value in (("kp", kp), ("ki", ki), ("kd", kd), ("setpoint", setpoint)):
-            if not math.isfinite(value):
-                raise ValueError(f"{name} must be finite, got {value!r}")
+        for name, value in (("kp", kp), ("ki", ki), ("kd", kd), ("setpoint", setpoint), ("u_min", u_min),
+                            ("u_max", u_max)):
+            if isinstance(value, bool) or not isinstance(value, numbers.Real):
+                raise ValueError(f"TextbookPID({name}={value!r}): {name} must be a number (int or float), not "
+                                 f"{type(value).__name__}; e.g. TextbookPID(kp=1.0), or float({value!r}) if it "
+                                 "came from text")
+            if name not in ("u_min", "u_max") and not math.isfinite(value):
+                raise ValueError(f"TextbookPID({name}={value!r}): {name} must be finite, e.g. {name}=0.0")
         if not u_min < u_max:
-            raise ValueError(f"u_min must be below u_max, got [{u_min}, {u_max}]")
+            raise ValueError(f"TextbookPID(u_min={u_min!r}, u_max={u_max!r}): u_min must be below u_max "
+                             "(the actuator's limits), e.g. u_min=-1.0, u_max=1.0")
         self.kp, self.ki, self.kd, self.setpoint = kp, ki, kd, setpoint
         self.u_min, self.u_max, self.anti_windup = u_min, u_max, anti_windup
         self.integral = 0.0

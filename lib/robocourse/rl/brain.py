@@ -131,8 +131,8 @@ def brain_process_main(spec: dict, state_spec: tuple, target_spec: tuple, conn) 
                   by_name=spec.get("by_name", True))
     names = list(spec["state_names"])
     n = len(names)
-    state = SharedLatestValue.attach(state_spec)
-    targets = SharedLatestValue.attach(target_spec)
+    observed = SharedLatestValue.attach(state_spec)
+    commanded = SharedLatestValue.attach(target_spec)
     buf = np.zeros(2 * n)
     conn.send("ready")
     start_ns, start_t = conn.recv()
@@ -149,17 +149,17 @@ def brain_process_main(spec: dict, state_spec: tuple, target_spec: tuple, conn) 
         now = start_t + (t.wake_ns - start_ns) * 1e-9
         if stall_at is not None and now >= stall_at:
             return
-        seq, stamp = state.read_into(buf)
+        seq, stamp = observed.read_into(buf)
         if seq == 0 or not math.isfinite(stamp):
             return
         out = brain.step(names, buf[:n], buf[n:])
         if out is not None:
-            targets.write(out, stamp)
+            commanded.write(out, stamp)
             sent[0] += 1
 
     result = loop.run(tick, start_ns=start_ns)
     conn.send({"latency_ns": np.asarray(result.latency_ns), "busy_ns": np.asarray(result.busy_ns),
                "inference_ns": brain.inference_ns[:brain.n_inference].copy(), "sent": sent[0],
                "errors": brain.policy_errors[:5], "clipped": (processor.clipped_joint, processor.clipped_torque)})
-    state.close()
-    targets.close()
+    observed.close()
+    commanded.close()

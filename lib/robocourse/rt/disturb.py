@@ -18,7 +18,14 @@ import subprocess
 import sys
 import time
 
-_BUSY = ("import os, sys\nif hasattr(os, 'sched_setaffinity'):\n    os.sched_setaffinity(0, {int(a) for a in sys.argv[1:]})\n"
+# A child inherits its parent's scheduling policy: started from a SCHED_FIFO process (rttest with
+# -p, a benchmark's RT settings) a busy loop would be a real-time hog that starves every CPU it may
+# use. It returns to SCHED_OTHER first, so it is always the ordinary load the docstring promises.
+_BUSY = ("import os, sys\n"
+         "if hasattr(os, 'sched_setscheduler'):\n"
+         "    try:\n        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))\n"
+         "    except OSError:\n        pass\n"
+         "if hasattr(os, 'sched_setaffinity'):\n    os.sched_setaffinity(0, {int(a) for a in sys.argv[1:]})\n"
          "while True:\n    pass\n")
 
 

@@ -4,9 +4,10 @@ Counterpart: ``rttest_read_args`` (getopt "i:u:p:t:s:m:d:f:r"). Same letters, sa
 same units: -u takes ns/us/ms/s (a bare number is microseconds), -m and -d take gb/mb/kb/b
 (a bare number is megabytes). Where rttest silently exits on a bad value, this names the
 value, the rule and a fix. Extra long options (robocourse only) pick the wait strategy and
-the CPU: --wait sleep|hybrid|spin, --spin DURATION, --cpu N. The default wait is ``sleep``,
-rttest's only one (clock_nanosleep to the absolute deadline); ``hybrid`` and ``spin`` must be
-asked for, because they change both the latency figures and the CPU the loop burns.
+the CPU: --wait sleep|hybrid|adaptive|spin, --spin DURATION (hybrid's window, adaptive's upper
+bound), --cpu N. The default wait is ``sleep``, rttest's only one (clock_nanosleep to the
+absolute deadline); the others must be asked for, because they change both the latency figures
+and the CPU the loop burns.
 """
 
 from __future__ import annotations
@@ -23,8 +24,42 @@ _DURATION_UNITS = {"ns": 1, "us": 1_000, "ms": 1_000_000, "s": 1_000_000_000}
 _SIZE_UNITS = {"b": 1, "kb": KIB, "mb": MIB, "gb": GIB}
 _NUMBER = re.compile(r"^\s*(-?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+))\s*([a-zA-Z]*)\s*$")
 
-USAGE = ("usage: robocourse rttest [-i ITERATIONS] [-u PERIOD] [-t PRIORITY] [-s fifo|rr] "
-         "[-m STACK] [-d HEAP] [-f FILE] [--wait sleep|hybrid|spin] [--spin DURATION] [--cpu N]")
+_OPTIONS_USAGE = ("[-i ITERATIONS] [-u PERIOD] [-t PRIORITY] [-s fifo|rr] [-m STACK] [-d HEAP] [-f FILE] "
+                  "[--wait sleep|hybrid|adaptive|spin] [--spin DURATION] [--cpu N]")
+USAGE = f"usage: robocourse rttest {_OPTIONS_USAGE}"
+
+#: what each option means: one table for every command that takes rttest's options
+OPTION_HELP = (
+    ("-i N", "iterations (default 1000; <= 0 runs until Ctrl-C and keeps no samples file)"),
+    ("-u T", "period, ns/us/ms/s (bare number = us; default 1ms)"),
+    ("-t P", "real-time priority 1..98 (99 is the kernel's watchdogs'; default 80)"),
+    ("-s POL", "fifo or rr (default rr)"),
+    ("-m S", "stack prefault, gb/mb/kb/b (bare number = MB; default 1mb)"),
+    ("-d S", "heap prefault cap, same units (rttest: 8gb; robocourse uses 64mb unless -d is given; "
+             "never more than a quarter of MemAvailable)"),
+    ("-f FILE", "write rttest's results file"),
+    ("--wait W", "sleep (default: rttest's clock_nanosleep), hybrid (sleep, then spin the last --spin), "
+                 "adaptive (sleep, then spin only the window this machine needs, learned as it runs, at most "
+                 "--spin) or spin (busy-wait: a whole core)"),
+    ("--spin T", "hybrid's spin window, adaptive's upper bound (default 200us)"),
+    ("--cpu N", "pin the loop to CPU N"),
+)
+
+
+def usage(prog: str = "robocourse rttest", extra: str = "") -> str:
+    """The one-line usage of a command taking rttest's options (``extra``: its own options)."""
+    return f"usage: {prog} {_OPTIONS_USAGE}{' ' + extra if extra else ''}"
+
+
+def help_text(prog: str = "robocourse rttest", extra_usage: str = "", extra_help=(), defaults: dict | None = None) -> str:
+    """Usage plus one line per option (``extra_help``: (flag, text) pairs of the command's own options;
+    ``defaults``: flag -> text replacing an rttest default the command changes)."""
+    rows = list(OPTION_HELP) + list(extra_help)
+    width = max(len(f) for f, _ in rows) + 2
+    lines = [usage(prog, extra_usage), "", "options:"]
+    for flag, text in rows:
+        lines.append(f"  {flag:<{width}}{(defaults or {}).get(flag, text)}")
+    return "\n".join(lines)
 
 
 class RttestUsageError(ValueError):
@@ -100,8 +135,10 @@ _SHORT = {"-i", "-u", "-t", "-s", "-m", "-d", "-f"}
 _LONG = {"--wait", "--spin", "--cpu"}
 
 
-def parse_rttest_args(argv, defaults: RttestOptions | None = None) -> RttestOptions:
-    """Parse rttest options (``-i 1000 -u 1ms -s fifo -t 98 ...``; also ``-i1000``, ``--wait=spin``)."""
+def parse_rttest_args(argv, defaults: RttestOptions | None = None, usage_line: str = USAGE) -> RttestOptions:
+    """Parse rttest options (``-i 1000 -u 1ms -s fifo -t 98 ...``; also ``-i1000``, ``--wait=spin``).
+
+    ``usage_line`` ends the messages about unknown or incomplete options (the calling command's)."""
     opts = defaults or RttestOptions()
     values: dict[str, str] = {}
     args = list(argv)
@@ -111,25 +148,25 @@ def parse_rttest_args(argv, defaults: RttestOptions | None = None) -> RttestOpti
         if arg.startswith("--"):
             key, eq, val = arg.partition("=")
             if key not in _LONG:
-                raise RttestUsageError(f"unknown option {arg!r}. {USAGE}")
+                raise RttestUsageError(f"unknown option {arg!r}. {usage_line}")
             if not eq:
                 if i + 1 >= len(args):
-                    raise RttestUsageError(f"option {key} needs a value. {USAGE}")
+                    raise RttestUsageError(f"option {key} needs a value. {usage_line}")
                 i += 1
                 val = str(args[i])
             values[key] = val
         elif arg.startswith("-") and len(arg) >= 2 and not arg[1].isdigit():
             key, val = arg[:2], arg[2:]
             if key not in _SHORT:
-                raise RttestUsageError(f"unknown option {arg!r}. {USAGE}")
+                raise RttestUsageError(f"unknown option {arg!r}. {usage_line}")
             if not val:
                 if i + 1 >= len(args):
-                    raise RttestUsageError(f"option {key} needs a value. {USAGE}")
+                    raise RttestUsageError(f"option {key} needs a value. {usage_line}")
                 i += 1
                 val = str(args[i])
             values[key] = val
         else:
-            raise RttestUsageError(f"unexpected argument {arg!r}: rttest takes only options. {USAGE}")
+            raise RttestUsageError(f"unexpected argument {arg!r}: rttest takes only options. {usage_line}")
         i += 1
 
     changes: dict = {}
@@ -139,9 +176,13 @@ def parse_rttest_args(argv, defaults: RttestOptions | None = None) -> RttestOpti
         changes["period_ns"] = parse_duration(values["-u"], "-u")
     if "-t" in values:
         prio = _parse_int(values["-t"], "-t", "the priority")
-        if not 1 <= prio <= 99:
-            raise RttestUsageError(f"-t {values['-t']!r}: real-time priorities run from 1 to 99 "
-                                   "(use 98 or less; 99 belongs to the kernel's watchdogs), e.g. -t 80")
+        if prio == 99:
+            raise RttestUsageError(f"-t {values['-t']!r}: priority 99 is where the kernel's watchdog and migration "
+                                   "threads run, and a loop there can starve them; this course takes 1 to 98 "
+                                   "(rttest itself would accept 99), e.g. -t 98")
+        if not 1 <= prio <= 98:
+            raise RttestUsageError(f"-t {values['-t']!r}: real-time priorities run from 1 to 98 here (99 belongs to "
+                                   "the kernel's watchdogs), e.g. -t 80")
         changes["priority"] = prio
     if "-s" in values:
         policy = values["-s"].strip().lower()
@@ -162,8 +203,9 @@ def parse_rttest_args(argv, defaults: RttestOptions | None = None) -> RttestOpti
         changes["filename"] = name
     if "--wait" in values:
         wait = values["--wait"].strip().lower()
-        if wait not in ("sleep", "hybrid", "spin"):
-            raise RttestUsageError(f"--wait {values['--wait']!r}: use sleep, hybrid or spin, e.g. --wait hybrid")
+        if wait not in ("sleep", "hybrid", "adaptive", "spin"):
+            raise RttestUsageError(f"--wait {values['--wait']!r}: use sleep, hybrid, adaptive or spin, "
+                                   "e.g. --wait adaptive")
         changes["wait"] = wait
     if "--spin" in values:
         spin = parse_duration(values["--spin"], "--spin")

@@ -17,6 +17,7 @@ import contextlib
 import ctypes
 import ctypes.util
 import gc
+import numbers
 import os
 import resource
 import sys
@@ -142,7 +143,17 @@ def reset_scheduling(policy: str = "SCHED_OTHER", priority: int = 0) -> None:
 
 def set_affinity(cpus, quiet: bool = False) -> SettingReport:
     """sched_setaffinity for the calling thread; ``cpus`` an int or a set of CPU numbers."""
-    wanted = {cpus} if isinstance(cpus, int) else set(cpus)
+    def cpu_number(c) -> bool:
+        return isinstance(c, numbers.Integral) and not isinstance(c, bool)
+
+    if not isinstance(cpus, (str, bytes)) and not cpu_number(cpus) and hasattr(cpus, "__iter__"):
+        cpus = list(cpus)   # a generator is read once
+    if isinstance(cpus, (str, bytes)) or not (
+            cpu_number(cpus) or (hasattr(cpus, "__iter__") and all(cpu_number(c) for c in cpus))):
+        hint = f" (int({cpus!r}) if it came from text)" if isinstance(cpus, str) and cpus.strip().isdigit() else ""
+        raise ValueError(f"set_affinity(cpus={cpus!r}): CPU numbers are ints, one or a set of them, e.g. "
+                         f"set_affinity(1) or set_affinity({{0, 1}}){hint}")
+    wanted = {int(cpus)} if cpu_number(cpus) else {int(c) for c in cpus}
     if not hasattr(os, "sched_setaffinity"):
         return _fail(SettingReport("affinity", False, "not supported on this OS",
                                    "Couldn't set CPU affinity: not supported on this OS"), quiet)
