@@ -111,6 +111,33 @@ waits for the GIL while the executor runs). Waking the executor before decoding 
 wake-up overlaps the decode): no gain. Disabling zenoh timestamping (rmw_zenoh enables it)
 or ``allowed_destination``: no difference.
 
+Throughput (issue 31: flat-out publish throughput >= 0.7x raw zenoh's, same payloads and
+processes; the throughput row of the table above, with each process's CPU time per message
+during the flood in the last two columns): NOT met. ``--quick`` on 2026-11-27 with the shared
+machine at load average 12-20: 0.17x [0.08..0.29] (small) and 0.26x [0.21..0.31] (1 kB) of raw
+zenoh's msgs/s; five 5000-message floods the same hour: 0.11x (15,608 vs 128,709 msgs/s). Where
+the time goes (that hour, so every figure is inflated by the load; same-run comparisons only):
+
+- CPU per message, 5000-message floods: the publishing process 10.1 us (raw 3.7 us), the echo
+  process 10.0 us (raw 2.0 us). At 15-25 k msgs/s that is a third of a core or less: robocourse
+  is not CPU-bound in a flood, it waits.
+- The wait is the hand-off: a sample that finds the executor asleep releases its lock from
+  zenoh's thread and the spinning thread must then be scheduled by the OS, once per message
+  when the executor keeps up; on a loaded 2-core machine that wake-up sets the pace. Raw zenoh
+  answers inside zenoh's own, already running callback thread.
+- Warm per-stage CPU (one thread, no zenoh threads, same load): CDR decode 5.9 us (the message
+  constructor's field checks ~2 us of it), CDR encode 4.4, attachment pack 1.0, attachment read +
+  check 1.0, payload to bytes 0.5, value copy 0.8, Publisher.publish's own layers 1.2; a
+  subscription hand-off + take + callback 5.4 us per message when 100 wait in the queue, 12.9 us
+  one at a time.
+
+Candidates not tried in this round (so not measured): one wake-up per batch (the executor drains
+every queued sample of a subscription per wake-up, as it does once awake, and zenoh's thread
+skips the wake while a drain is running), a short poll before the executor sleeps while a
+stream is flowing, and decoding in the executor's thread so zenoh's thread never holds the GIL
+for the codec. None of them touches the value copy per subscription, the attachment per sample
+or the sequence numbers.
+
 Stages (``--stages [--n 2000]``): one robocourse ping-pong with timing probes in both
 processes (``perf_counter_ns``, CLOCK_MONOTONIC, so stamps compare across processes on one
 machine): the p50 of each stage of the echo's hop and of the two zenoh legs.
@@ -138,6 +165,8 @@ RAW_PING, RAW_PONG = "bench/raw/ping", "bench/raw/pong"
 HANDOFF_PING, HANDOFF_PONG = "bench/handoff/ping", "bench/handoff/pong"
 SIZES = {"small": 20, "1 kB": 1012}          # string characters -> CDR 32 B / 1024 B
 PERIOD_NS = 1_000_000
+#: issue 31: flat-out publish throughput at least this share of raw zenoh's, same payloads
+GOAL_TPUT = 0.7
 
 
 def _config(endpoint):
@@ -563,6 +592,15 @@ def _spawn(args):
     return p
 
 
+def _cpu_s(pid):
+    """CPU seconds (user + system, all threads) of process ``pid`` so far; 0 for None."""
+    if pid is None:
+        return 0.0
+    with open(f"/proc/{pid}/stat") as fh:
+        fields = fh.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def med(xs):
     xs = [x for x in xs if x == x]
     return (statistics.median(xs), min(xs), max(xs)) if xs else (float("nan"),) * 3
@@ -615,6 +653,8 @@ def main():
     zctx.transport.wait_for(lambda t: len([e for e in t.remote_entities("MS")
                                            if e.topic == "/ping"]) == 1, 20)
     raw, handoff = RawSide(ep), RawSide(ep, handoff=True)
+    # the echo process of each path, for its CPU time per message during a flood
+    echo_of = {"robocourse/zenoh": procs[0].pid, "raw zenoh": procs[1].pid, "raw + hand-off": procs[2].pid}
     time.sleep(0.5)
     rows = {}                       # (size, path) -> {"p50": [], "p99": [], "tput": []}
     paths = ("in-process bus", "robocourse/zenoh", "raw + hand-off", "raw zenoh")
@@ -631,11 +671,17 @@ def main():
                 item = cdr if path.startswith("raw") else msg
                 side.pingpong(item, 50)                      # warm-up
                 rtt = np.asarray(side.pingpong(item, a.n), dtype=float) / 1e3
+                echo = echo_of.get(path)
+                c0, e0 = time.process_time(), _cpu_s(echo)
                 tput = side.flood(item, a.flood)
-                d = rows.setdefault((size, path), {"p50": [], "p99": [], "tput": []})
+                c1, e1 = time.process_time(), _cpu_s(echo)
+                d = rows.setdefault((size, path), {"p50": [], "p99": [], "tput": [], "cpu_here": [],
+                                                   "cpu_echo": []})
                 d["p50"].append(float(np.percentile(rtt, 50)))
                 d["p99"].append(float(np.percentile(rtt, 99)))
                 d["tput"].append(tput)
+                d["cpu_here"].append((c1 - c0) / a.flood * 1e6)
+                d["cpu_echo"].append((e1 - e0) / a.flood * 1e6 if echo is not None else float("nan"))
         print(f"  repeat {rep + 1}/{a.repeats} done", flush=True)
     pend = {"one process": [], "two processes": []}
     for rep in range(a.repeats):
@@ -653,13 +699,15 @@ def main():
 
     print("\nround trip (publish -> echo in the other process -> back), microseconds; "
           "median [min..max] over repeats")
-    print(f"{'payload':8} {'path':18} {'p50 us':>24} {'p99 us':>26} {'msgs/s':>26}")
+    print(f"{'payload':8} {'path':18} {'p50 us':>24} {'p99 us':>26} {'msgs/s':>26} "
+          f"{'CPU us/msg here':>22} {'CPU us/msg echo':>22}")
     for size in SIZES:
         cdr_len = len(wire.to_cdr(_payload(size)))
         for path in paths:
             d = rows[(size, path)]
             print(f"{size + f' ({cdr_len} B)':8} {path:18} {fmt(med(d['p50'])):>24} "
-                  f"{fmt(med(d['p99'])):>26} {fmt(med(d['tput'])):>26}")
+                  f"{fmt(med(d['p99'])):>26} {fmt(med(d['tput'])):>26} {fmt(med(d['cpu_here'])):>22} "
+                  f"{fmt(med(d['cpu_echo'])):>22}")
         def ratio(num, den, key="p50", size=size):
             """median [min..max] of the per-repeat ratios (each repeat's paths ran together)"""
             return med([x / y for x, y in zip(rows[(size, num)][key], rows[(size, den)][key])])
@@ -675,8 +723,13 @@ def main():
               f"{'met' if vs_raw[0] <= 1.5 else 'NOT met'})\n"
               f"    = {fmt(handoff_cost, 'x', 2)} for the two thread hand-offs alone (raw + "
               f"hand-off / raw) x {fmt(vs_handoff, 'x', 2)} for robocourse's layers (robocourse / "
-              f"raw + hand-off); {rc50 / in50:.1f}x the in-process bus; throughput "
-              f"{fmt(tput, 'x', 2)} raw zenoh")
+              f"raw + hand-off); {rc50 / in50:.1f}x the in-process bus\n"
+              f"    throughput {fmt(tput, 'x', 2)} raw zenoh (goal >= {GOAL_TPUT}x: "
+              f"{'met' if tput[0] >= GOAL_TPUT else 'NOT met'}); CPU per message during the flood: "
+              f"here {med(rows[(size, 'robocourse/zenoh')]['cpu_here'])[0]:.1f} vs "
+              f"{med(rows[(size, 'raw zenoh')]['cpu_here'])[0]:.1f} us, echo "
+              f"{med(rows[(size, 'robocourse/zenoh')]['cpu_echo'])[0]:.1f} vs "
+              f"{med(rows[(size, 'raw zenoh')]['cpu_echo'])[0]:.1f} us (robocourse vs raw)")
     print(f"\npendulum graph at 1 kHz for {a.seconds:g} s: late = one-way latency > 1 ms or lost "
           f"(sensor + command messages); median [min..max] over repeats")
     print(f"{'graph':14} {'late %':>22} {'sensor p50 us':>24} {'sensor p99 us':>26} "

@@ -284,18 +284,21 @@ def test_multi_threaded_spin_until_future_complete_returns_while_another_callbac
         release.wait(timeout=10.0)
         slow_done.set()
 
-    group = ReentrantCallbackGroup()
+    # the timer has a group of its own, so at most one `finish` holds a thread while it waits:
+    # the other thread is free for `slow` however late the machine lets it start (with a
+    # reentrant group both threads could sit in `finish` and `slow` would never run)
+    group = MutuallyExclusiveCallbackGroup()
     ex = MultiThreadedExecutor(num_threads=2, context=ctx)
     ex.add_node(node)
     ex.create_task(slow)
     future = Future()
 
     def finish():
-        slow_started.wait(timeout=10.0)
-        future.set_result(42)
+        if slow_started.wait(timeout=30.0) and not future.done():
+            future.set_result(42)
 
     t = node.create_timer(0.001, finish, callback_group=group)
-    ex.spin_until_future_complete(future, timeout_sec=10.0)
+    ex.spin_until_future_complete(future, timeout_sec=60.0)
     returned_while_running = not slow_done.is_set()
     t.cancel()
     release.set()

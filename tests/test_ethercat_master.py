@@ -82,7 +82,8 @@ def test_config_map_sizes_image_and_expected_wkc_like_soem():
 
 
 def test_objects_are_read_and_written_by_cia_index_for_an_adapter():
-    bus = demo_bus()
+    clock = SimClock()    # the SM watchdog counts simulated time: a stalled (loaded) machine cannot trip it
+    bus = demo_bus(clock=clock)
     m = up(bus)
     drive, do = m.slaves[3], m.slaves[2]
     drive.write_object(0x6040, 0x0006)
@@ -92,7 +93,7 @@ def test_objects_are_read_and_written_by_cia_index_for_an_adapter():
     do.write_object(0x7010, 1, subindex=1)
     do.write_object(0x7070, 1, subindex=1)
     assert do.output == b"\x82"
-    cycle(m, n=2)
+    cycle(m, clock, n=2)
     assert bus.slaves[2].outputs == 0x82
     assert drive.read_object(0x6041) == bus.slaves[3].statusword
     assert cia402_state(drive.read_object(0x6041)) == READY_TO_SWITCH_ON
@@ -418,6 +419,7 @@ def test_cia402_fault_needs_a_rising_fault_reset_edge():
     assert cia402_state(drive_inputs(drive.input)[0]) == SWITCH_ON_DISABLED
 
 
+@pytest.mark.serial     # the wall clock at 1 kHz: a stall past the 100 ms SM watchdog drops a slave to SAFE_OP
 def test_cyclic_exchange_in_the_rt_loop_at_1khz_reports_latency_and_no_faults():
     bus = Bus([Coupler(), DigitalInputs(), DigitalOutputs()])
     m = up(bus, dc=False)

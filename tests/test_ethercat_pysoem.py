@@ -14,6 +14,9 @@ from robocourse.ethercat.master import Master
 from robocourse.ethercat.netns import run_pysoem, why_not
 from robocourse.ethercat.pcap import PcapWriter, read_pcap
 
+# a network namespace and SOEM's frame timeouts: these run alone (tests/conftest.py: serial)
+pytestmark = pytest.mark.serial
+
 pysoem = pytest.importorskip("pysoem", reason="pysoem not installed (it is in requirements.txt)")
 REASON = why_not()
 
@@ -51,7 +54,7 @@ def test_soem_scans_maps_and_runs_our_bus_in_op_for_1000_cycles(tmp_path):
     # our master's bring-up (config_init, config_map, config_dc, SAFE_OP check) sends SOEM's
     # datagrams, field by field; only the DC offsets differ (they carry the wall clock)
     soem_up = bring_up_requests(soem_frames)
-    assert len(soem_up) > 600
+    assert len(soem_up) > 400   # distinct consecutive requests (repeated polls counted once)
     assert bring_up_requests(our_bring_up(tmp_path, demo_bus)) == soem_up
 
 
@@ -71,7 +74,11 @@ def our_bring_up(tmp_path, make_bus, then=None):
 
 
 def bring_up_requests(frames):
-    """(cmd, adp, ado, len, data) of every request before the first LRW; DC offsets masked."""
+    """(cmd, adp, ado, len, data) of every request before the first LRW; DC offsets masked.
+
+    A request identical to the one before it is counted once: how often a master polls a busy
+    status, or resends a frame whose answer came after its timeout (on a loaded machine),
+    depends on timing, not on the bring-up sequence compared here."""
     out = []
     for f in frames:
         if f.src[0] & 0x02:
@@ -80,7 +87,9 @@ def bring_up_requests(frames):
             if d.cmd == Command.LRW:
                 return out
             data = None if (d.cmd, d.ado) == (Command.FPWR, 0x0920) else bytes(d.data)
-            out.append((d.cmd, d.adp, d.ado, len(d.data), data))
+            request = (d.cmd, d.adp, d.ado, len(d.data), data)
+            if not out or out[-1] != request:
+                out.append(request)
     return out
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import functools
-import time
+import threading
 
 import pytest
 
@@ -89,10 +89,8 @@ def test_time_limit_stops_an_endless_loop():
             pass
 
     _register("test.slow", lambda i, o: "ok", probe=lambda inputs, f: f(), inputs=None, time_limit=0.3)
-    start = time.monotonic()
-    r = checks.check("test.slow", forever, quiet=True)
+    r = checks.check("test.slow", forever, quiet=True)   # it returns at all: the alarm interrupted the loop
     assert not r.passed and "0.3 s time limit" in r.message and r.reason == "timeout"
-    assert time.monotonic() - start < 10  # it returned at all: the alarm interrupted the loop
 
 
 def _reference_double(x):
@@ -311,15 +309,21 @@ def test_a_record_over_its_size_budget_is_not_judged():
 
 
 def test_a_judge_past_its_time_budget_is_the_checks_fault_not_the_students():
+    release, finished = threading.Event(), threading.Event()
+
     def slow(inputs, out):
-        time.sleep(5)
+        release.wait(60)        # never set before judge() returns: the budget alone can end it
+        finished.set()
         return ""
 
     checks.register("test.slow_judge", uses=("f",), probe=_call_probe, inputs=lambda rng: [2],
                     schema=Call(Int()), subtests=[SubTest("slow", 1, slow)], judge_time_limit=0.3)
-    start = time.monotonic()
-    r = checks.judge(checks.get("test.slow_judge"), [2], {"outputs": {"value": 4, "type": "int"}})
-    assert time.monotonic() - start < 3
+    try:
+        r = checks.judge(checks.get("test.slow_judge"), [2], {"outputs": {"value": 4, "type": "int"}})
+        returned_first = not finished.is_set()   # judge() came back while the sub-test still ran
+    finally:
+        release.set()
+    assert returned_first
     assert r.reason == "check_error" and "time budget" in r.message and "budget" in r.extra["instructor"]
 
 

@@ -25,7 +25,10 @@ def test_cpu_load_pins_busy_processes_and_cleans_up():
     with CpuLoad(cpu=cpu, processes=2) as load:
         pids = load.pids
         assert len(pids) == 2
-        time.sleep(0.2)
+        # each child pins itself as it starts: wait for that (a loaded machine starts them late)
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and any(os.sched_getaffinity(p) != {cpu} for p in pids):
+            time.sleep(0.05)
         for pid in pids:
             assert os.sched_getaffinity(pid) == {cpu}
             with open(f"/proc/{pid}/stat") as fh:

@@ -5,6 +5,9 @@ import pytest
 
 from robocourse.rt import inversion
 
+# SCHED_FIFO processes pinned to one CPU, compared by how long a reader waits: run alone
+pytestmark = pytest.mark.serial
+
 OK, WHY = inversion.available()
 needs_rt = pytest.mark.skipif(not OK, reason=f"inversion needs SCHED_FIFO and affinity: {WHY}")
 

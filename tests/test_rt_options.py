@@ -71,7 +71,7 @@ def test_all_options_together_and_attached_values():
     (["-i"], "option -i needs a value"),
     (["--wait"], "option --wait needs a value"),
     (["1000"], "unexpected argument '1000'"),
-    (["--wait", "yield"], "use sleep, hybrid or spin"),
+    (["--wait", "yield"], "use sleep, hybrid, adaptive or spin"),
     (["--spin", "abc"], "--spin 'abc': not a duration"),
     (["-u", "100us", "--spin", "200us"], "longer than the period"),
     (["--cpu", "x"], "--cpu 'x': the CPU number must be a whole number"),

@@ -70,7 +70,8 @@ def _peer(role, ep):
     return ["-m", "robocourse.bus.zenoh.peer", role, "--connect", ep]
 
 
-def _spin_until(ex, cond, timeout=20.0):
+def _spin_until(ex, cond, timeout=60.0):
+    """Spin until ``cond()``; the timeout is a safety net for a loaded machine, not a timing."""
     end = time.monotonic() + timeout
     while time.monotonic() < end and not cond():
         ex.spin_once(timeout_sec=0.02)
@@ -171,7 +172,7 @@ def test_plain_zenoh_client_gets_its_sequence_number_and_gid_back(ctx, endpoint,
     raw = spawn(str(RAW), "call", endpoint)
     replies = []
     done = _spin_until(ex, lambda: _poll_line(raw, replies) and len(replies) == 3)
-    assert done, f"the raw client reported only {replies} within 20 s"
+    assert done, f"the raw client reported only {replies} within 60 s"
     bad, replies = replies[0], replies[1:]
     # a request that is not AddTwoInts in CDR gets an error reply naming why, and is counted
     assert "does not decode" in bad["truncated_request_error"], bad

@@ -4,8 +4,9 @@
 lock memory and prefault (-m stack, -d heap), set the policy and priority (-s, -t), spin
 -i iterations at period -u, print rttest's statistics block, write -f. Missing privileges
 print the seed's messages with the fix, and the run carries on. It sleeps to each deadline as
-rttest does; ``--wait hybrid`` (sleep, then spin the last ``--spin``) or ``--wait spin`` must be
-asked for, and the statistics block names the strategy that ran.
+rttest does; ``--wait hybrid`` (sleep, then spin the last ``--spin``), ``--wait adaptive`` (spin
+only the window this machine's sleeps need, learned as it runs, at most ``--spin``) or
+``--wait spin`` must be asked for, and the statistics block names the strategy that ran.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ def register(sub):
         description="Run an instrumented empty loop and print rttest's statistics. Options as rttest: "
                     "-i ITERATIONS (<=0: until Ctrl-C), -u PERIOD (ns/us/ms/s, bare = us), -t PRIORITY, "
                     "-s fifo|rr, -m STACK and -d HEAP prefault sizes (gb/mb/kb/b, bare = MB), -f FILE; "
-                    "robocourse adds --wait sleep|hybrid|spin (default sleep, as rttest), --spin DURATION, --cpu N.",
+                    "robocourse adds --wait sleep|hybrid|adaptive|spin (default sleep, as rttest), --spin DURATION, --cpu N.",
         prefix_chars="+", add_help=False)
     p.add_argument("rttest_args", nargs=argparse.REMAINDER)
     p.set_defaults(func=run_rttest)
@@ -86,12 +87,15 @@ def run_rttest(args) -> int:
     minflt, majflt = _faults()
     print(f"Initial major pagefaults: {majflt}")
     print(f"Initial minor pagefaults: {minflt}")
-    loop = PeriodicLoop(opts.period_ns, opts.iterations, wait=strategy(opts.wait, opts.spin_ns))
+    wait = strategy(opts.wait, opts.spin_ns)
+    loop = PeriodicLoop(opts.period_ns, opts.iterations, wait=wait)
     result = loop.run()
     settings.reset_scheduling()
     settings.unlock_memory()
     print()
     print(result.stats().format(name=opts.filename))
+    if hasattr(wait, "window_ns"):
+        print(wait.describe(opts.period_ns))   # what the adaptive wait learned, and its cost
     if opts.filename:
         if opts.iterations <= 0:
             print("No sample buffer was saved, not writing results", file=sys.stderr)

@@ -1,7 +1,7 @@
 """robocourse.rt: timing a periodic loop the way rttest and cyclictest do.
 
 - ``loop``: :class:`PeriodicLoop` with absolute deadlines and a wait strategy (``wait``:
-  :class:`Sleep`, :class:`Hybrid`, :class:`Spin`); latency per iteration, page faults, overruns.
+  :class:`Sleep`, :class:`Hybrid`, :class:`Adaptive`, :class:`Spin`); latency per iteration, page faults, overruns.
 - ``stats``: rttest's statistics (population stddev) plus percentiles and a histogram.
 - ``options``: rttest's -i -u -t -s -m -d -f with clear usage errors.
 - ``results_file`` / ``plot``: rttest's results file and rttest_plot's four figures.
@@ -44,12 +44,12 @@ from .realtime_thread import (
 from .results_file import ResultsData, read_results, write_results
 from .settings import SettingReport, lock_and_prefault, realtime, set_affinity, set_scheduling
 from .stats import RttestStats, compute_stats, format_rttest, histogram
-from .wait import Hybrid, Sleep, Spin, WaitStrategy
+from .wait import Adaptive, Hybrid, Sleep, Spin, WaitStrategy
 
 __all__ = [
     "capabilities", "clock", "cyclictest", "disturb", "inversion", "loop", "options", "permissions", "plot",
     "realtime_thread", "repeat", "results_file", "settings", "stats", "wait",
-    "STOP", "CyclictestMissing", "FakeClock", "Finding", "Hybrid", "LoopResult", "MonotonicClock",
+    "STOP", "Adaptive", "CyclictestMissing", "FakeClock", "Finding", "Hybrid", "LoopResult", "MonotonicClock",
     "PeriodicLoop", "RealtimeThreadReport", "ResultsData", "RttestOptions", "RttestStats", "RttestUsageError",
     "SettingReport",
     "Sleep", "Spin", "Tick", "WaitStrategy", "compute_stats", "format_rttest", "histogram",

@@ -21,6 +21,7 @@ from __future__ import annotations
 import array
 import resource
 import sys
+import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -83,6 +84,12 @@ class LoopResult:
     initial_major_pagefaults: int = 0
     first_iteration: int = 0
     _running: RunningStats | None = field(default=None, repr=False)
+    cpu_ns: int = 0
+    """CPU time the loop's thread used during the run (``time.thread_time_ns``): wait + callbacks."""
+    wall_ns: int = 0
+    """Wall time of the run, from its start to the end of the last iteration."""
+    cpu_share: float = float("nan")
+    """Share of one core the loop's thread used: ``cpu_ns / wall_ns`` (0.02 = 2 % of a core)."""
 
     @property
     def deadlines_ns(self) -> np.ndarray:
@@ -131,7 +138,8 @@ class PeriodicLoop:
 
     ``PeriodicLoop(1_000_000, 1000).run(callback)`` runs 1000 iterations at 1 kHz and returns a
     :class:`LoopResult`. ``callback(tick)`` is optional. The default wait is :class:`Sleep`,
-    rttest's; pass ``wait=Hybrid(spin_ns=200_000)`` to sleep-then-spin.
+    rttest's; pass ``wait=Hybrid(spin_ns=200_000)`` to sleep-then-spin, or
+    ``wait=Adaptive(max_spin_ns=300_000)`` to spin only the window this machine needs.
     """
 
     def __init__(self, period_ns: int, iterations: int = 1000, wait: WaitStrategy | None = None,
@@ -144,7 +152,8 @@ class PeriodicLoop:
         if not isinstance(keep_last, int) or keep_last < 1:
             raise ValueError(f"keep_last must be a positive int, got {keep_last!r}")
         if wait is not None and not isinstance(wait, WaitStrategy):
-            raise ValueError(f"wait must be Sleep(), Hybrid(spin_ns=...) or Spin(), got {wait!r}")
+            raise ValueError(f"wait must be Sleep(), Hybrid(spin_ns=...), Adaptive(max_spin_ns=...) or Spin(), "
+                             f"got {wait!r}")
         self.period_ns = int(period_ns)
         self.iterations = int(iterations)
         self.wait = wait if wait is not None else Sleep()
@@ -179,6 +188,7 @@ class PeriodicLoop:
         tick = Tick(period)
         init_min, init_maj = _faults() if count_faults else (0, 0)
         prev_min, prev_maj = init_min, init_maj
+        cpu0, wall0 = time.thread_time_ns(), time.monotonic_ns()
         start = now() if start_ns is None else int(start_ns)
         k = 0
         stopped = False
@@ -222,6 +232,7 @@ class PeriodicLoop:
                 raise
             stopped = True
             print(f"stopped by Ctrl-C after {k} iterations", file=sys.stderr)
+        cpu_ns, wall_ns = time.thread_time_ns() - cpu0, time.monotonic_ns() - wall0
 
         def arr(a):
             x = np.frombuffer(a, dtype=np.int64)
@@ -236,7 +247,7 @@ class PeriodicLoop:
         return LoopResult(period, start, str(self.wait), arr(lat), arr(wake), arr(minflt), arr(majflt),
                           arr(busy), len(overrun_iterations), overrun_iterations, k, self.iterations,
                           stopped and (not bounded or k < self.iterations), init_min, init_maj, first,
-                          running)
+                          running, cpu_ns, wall_ns, cpu_ns / wall_ns if wall_ns > 0 else float("nan"))
 
 
 def run_loop(period_ns: int = 1_000_000, iterations: int = 1000, wait: WaitStrategy | None = None,

@@ -4,9 +4,10 @@ Counterpart: ``rttest_read_args`` (getopt "i:u:p:t:s:m:d:f:r"). Same letters, sa
 same units: -u takes ns/us/ms/s (a bare number is microseconds), -m and -d take gb/mb/kb/b
 (a bare number is megabytes). Where rttest silently exits on a bad value, this names the
 value, the rule and a fix. Extra long options (robocourse only) pick the wait strategy and
-the CPU: --wait sleep|hybrid|spin, --spin DURATION, --cpu N. The default wait is ``sleep``,
-rttest's only one (clock_nanosleep to the absolute deadline); ``hybrid`` and ``spin`` must be
-asked for, because they change both the latency figures and the CPU the loop burns.
+the CPU: --wait sleep|hybrid|adaptive|spin, --spin DURATION (hybrid's window, adaptive's upper
+bound), --cpu N. The default wait is ``sleep``, rttest's only one (clock_nanosleep to the
+absolute deadline); the others must be asked for, because they change both the latency figures
+and the CPU the loop burns.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ _SIZE_UNITS = {"b": 1, "kb": KIB, "mb": MIB, "gb": GIB}
 _NUMBER = re.compile(r"^\s*(-?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+))\s*([a-zA-Z]*)\s*$")
 
 _OPTIONS_USAGE = ("[-i ITERATIONS] [-u PERIOD] [-t PRIORITY] [-s fifo|rr] [-m STACK] [-d HEAP] [-f FILE] "
-                  "[--wait sleep|hybrid|spin] [--spin DURATION] [--cpu N]")
+                  "[--wait sleep|hybrid|adaptive|spin] [--spin DURATION] [--cpu N]")
 USAGE = f"usage: robocourse rttest {_OPTIONS_USAGE}"
 
 #: what each option means: one table for every command that takes rttest's options
@@ -37,9 +38,10 @@ OPTION_HELP = (
     ("-d S", "heap prefault cap, same units (rttest: 8gb; robocourse uses 64mb unless -d is given; "
              "never more than a quarter of MemAvailable)"),
     ("-f FILE", "write rttest's results file"),
-    ("--wait W", "sleep (default: rttest's clock_nanosleep), hybrid (sleep, then spin the last --spin) "
-                 "or spin (busy-wait: a whole core)"),
-    ("--spin T", "spin window of hybrid (default 200us)"),
+    ("--wait W", "sleep (default: rttest's clock_nanosleep), hybrid (sleep, then spin the last --spin), "
+                 "adaptive (sleep, then spin only the window this machine needs, learned as it runs, at most "
+                 "--spin) or spin (busy-wait: a whole core)"),
+    ("--spin T", "hybrid's spin window, adaptive's upper bound (default 200us)"),
     ("--cpu N", "pin the loop to CPU N"),
 )
 
@@ -201,8 +203,9 @@ def parse_rttest_args(argv, defaults: RttestOptions | None = None, usage_line: s
         changes["filename"] = name
     if "--wait" in values:
         wait = values["--wait"].strip().lower()
-        if wait not in ("sleep", "hybrid", "spin"):
-            raise RttestUsageError(f"--wait {values['--wait']!r}: use sleep, hybrid or spin, e.g. --wait hybrid")
+        if wait not in ("sleep", "hybrid", "adaptive", "spin"):
+            raise RttestUsageError(f"--wait {values['--wait']!r}: use sleep, hybrid, adaptive or spin, "
+                                   "e.g. --wait adaptive")
         changes["wait"] = wait
     if "--spin" in values:
         spin = parse_duration(values["--spin"], "--spin")
