@@ -499,8 +499,14 @@ def _deploy_by_name(inputs, out):
 
 
 def _before_stall(d: _Deployment) -> list:
-    """The targets that reached the robot before the brain's stall (the longest pause between targets)."""
+    """The targets that reached the robot before the brain's stall: those served before the stalled call
+    began (the call log's clock and the arm's are both CLOCK_MONOTONIC), else up to the longest pause
+    between targets. (A policy inside the loop stalls the ticks too, so its targets never pause in ticks.)"""
     tgts = d.targets()
+    stall_t = d.out.get("stall_t")
+    if stall_t is not None:
+        began = stall_t - d.inputs["stall_s"]
+        return [e for e in tgts if d.wall.get(e[1], float("inf")) < began]
     if len(tgts) < 2:
         return tgts
     gaps = [b[1] - a[1] for a, b in zip(tgts, tgts[1:])]
