@@ -1,6 +1,7 @@
 """Shared test fixtures, the per-notebook time budget, and how the suite runs in parallel.
 
-Parallel runs (``make test`` runs pytest-xdist: ``-n $(TEST_JOBS) --dist loadgroup``):
+Parallel runs (``make test`` runs pytest-xdist: ``-n $(TEST_JOBS) --dist loadgroup
+--no-loadscope-reorder``; give the same two options to a ``pytest -n N`` of your own):
 
 - Every test module (and every notebook) is one unit of work, kept on one worker, so a
   module-scoped fixture (a class graded once, a box started once) runs once. A test with its own
@@ -75,23 +76,26 @@ def _notebook_is_serial(path: Path, seen: dict = {}) -> bool:  # noqa: B006 - a 
     return seen[path]
 
 
+def pytest_itemcollected(item):
+    """Notebook time limit, serial marks, one xdist group per module: set as each item is
+    collected, so xdist's own collection hook (which turns groups into ids) sees them."""
+    path = Path(str(getattr(item, "path", "")))
+    if path.suffix == ".ipynb":
+        # the safety-net limit for the whole notebook (nbmake's own is per cell)
+        item.add_marker(pytest.mark.timeout(NOTEBOOK_TIMEOUT_S))
+        if _notebook_is_serial(path):
+            item.add_marker(pytest.mark.serial)
+    if item.get_closest_marker("serial") is not None:
+        # serial wins over any group of its own: one group runs every serial test
+        item.own_markers[:] = [m for m in item.own_markers if m.name != "xdist_group"]
+        item.add_marker(pytest.mark.xdist_group(SERIAL_GROUP))
+    elif item.get_closest_marker("xdist_group") is None:
+        item.add_marker(pytest.mark.xdist_group(_unit(item.nodeid)))
+
+
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    """Notebook time limit, serial marks, one xdist group per module, longest units first."""
-    for item in items:
-        path = Path(str(getattr(item, "path", "")))
-        if path.suffix == ".ipynb":
-            # the safety-net limit for the whole notebook (nbmake's own is per cell)
-            item.add_marker(pytest.mark.timeout(NOTEBOOK_TIMEOUT_S))
-            if _notebook_is_serial(path):
-                item.add_marker(pytest.mark.serial)
-        if item.get_closest_marker("serial") is not None:
-            # serial wins over any group of its own: one group runs every serial test
-            item.own_markers[:] = [m for m in item.own_markers if m.name != "xdist_group"]
-            item.add_marker(pytest.mark.xdist_group(SERIAL_GROUP))
-        elif item.get_closest_marker("xdist_group") is None:
-            item.add_marker(pytest.mark.xdist_group(_unit(item.nodeid)))
-
+    """Longest units first, serial tests last."""
     cache = getattr(config, "cache", None)
     seconds = cache.get(_CACHE_KEY, {}) if cache is not None else {}
 
