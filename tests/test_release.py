@@ -30,19 +30,8 @@ SHARED_LINES = {
     "if goal_handle.is_cancel_requested:": {"chapters/03_mycar_comm.ipynb", "lib/robocourse/mycar/navigation.py",
                                             "lib/robocourse/mycar/experiments.py", "tests/test_bus_actions.py",
                                             "lib/robocourse/bus/zenoh/peer.py"},
-    # chapter 3's launch-file exercise: the values the exercise states (its text lists them), the key every
-    # ROS 2 parameter file has, and launch_ros idioms the chapter's and the library's launch files show (the
-    # exercise's own graph, names, namespace and remapping are not in them)
-    "wheel_base: 0.16": {"exercises/03_mycar_exercises.ipynb"},
-    "wheel_radius: 0.033": {"exercises/03_mycar_exercises.ipynb"},
-    "watchdog_timeout: 0.3": {"exercises/03_mycar_exercises.ipynb"},
-    "odom_rate_hz: 40.0": {"exercises/03_mycar_exercises.ipynb"},
-    "led_count: 4": {"exercises/03_mycar_exercises.ipynb"},
-    "timeout: 15.0": {"exercises/03_mycar_exercises.ipynb"},
-    "goal_tolerance: 0.03": {"exercises/03_mycar_exercises.ipynb"},
-    "max_linear: 0.25": {"exercises/03_mycar_exercises.ipynb"},
-    "wheel_separation_multiplier: 1.02": {"exercises/03_mycar_exercises.ipynb", "lib/robocourse/mycar/mycar.yaml"},
-    "ros__parameters:": {"benchmarks/control_loop.py", "chapters/03_mycar_comm.ipynb", "chapters/04_ros2_control.ipynb", "exercises/04_ros2_control_exercises.ipynb", "lib/robocourse/bus/arguments.py", "lib/robocourse/control/checks.py", "lib/robocourse/control/parameters.py", "lib/robocourse/control/config/rrbot_controllers.yaml", "lib/robocourse/control/config/ur5e_controllers.yaml", "lib/robocourse/drivers/config/arm_controllers.yaml", "lib/robocourse/mycar/mycar.yaml", "lib/robocourse/rl/deployment.py", "tests/test_bus_arguments.py", "tests/test_control_admittance.py", "tests/test_control_controllers.py", "tests/test_control_diff_drive.py", "tests/test_control_gripper.py", "tests/test_control_jtc.py", "tests/test_control_manager.py", "tests/test_control_mujoco_system.py", "tests/test_control_parameters.py", "tests/test_control_pid.py", "tests/test_control_tools.py", "tests/test_launch.py"},
+    # chapter 3's launch-file exercise: launch_ros idioms the chapter's and the library's launch files show (the
+    # exercise's own graph, names, namespace, remapping and parameter file are not in them)
     "return LaunchDescription([": {"chapters/03_mycar_comm.ipynb", "lib/robocourse/launch/__init__.py",
                                    "lib/robocourse/mycar/launch.py"},
     "condition=IfCondition(use_sim)),": {"lib/robocourse/mycar/launch.py"},

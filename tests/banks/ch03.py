@@ -375,7 +375,7 @@ def generate_launch_description():
         Answer("a relative remapping", replace=[('remappings=[("/set_led", "/mycar/set_led")]',
                                                  'remappings=[("set_led", "/mycar/set_led")]')],
                score=2.5, property="/set_led remapped to /mycar/set_led", says="remap the absolute name"),
-        Answer("an integer where a double belongs", replace=[("    odom_rate_hz: 40.0", "    odom_rate_hz: 40")],
+        Answer("an integer where a double belongs", replace=[("odom_rate_hz: 40.0", "odom_rate_hz: 40")],
                property="doubles written as doubles", says="expecting type 'DOUBLE'"),
         Answer("no namespace", replace=[('car = {"package": "mycar", "namespace": "mycar"}', 'car = {"package": "mycar"}')],
                score=0.5, property="every node in the namespace mycar", says="namespace 'mycar'"),
