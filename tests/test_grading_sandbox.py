@@ -114,3 +114,22 @@ def test_a_course_living_under_tmp_keeps_its_read_only_binds_and_a_private_tmp(t
         assert out.stdout.splitlines() == ["library", "OSError 30", "['tmp']"]
         assert (work / "tmp" / "scratch.txt").read_text() == "mine"   # /tmp is the submission's own tmp
         assert not os.path.exists(os.path.join(course, "x"))
+
+
+def test_a_cgroup_that_cannot_be_made_falls_back_to_polling_and_says_why(monkeypatch):
+    from robocourse.grading import resources
+
+    monkeypatch.setattr(resources, "_own_v1_path", lambda controller: resources.Path("/proc/no-such-cgroup"))
+    with resources.Box(512, 64, None, mode="cgroup-v1") as box:
+        assert box.mode == "polling" and box.dirs == {}
+        assert "the cgroup could not be made" in box.describe()
+
+
+def test_the_private_dev_shm_is_size_limited(tmp_path):
+    if not BWRAP:
+        pytest.skip("bubblewrap is missing: /dev/shm cannot be private")
+    code = ("import os\nchunk = b'x' * (1 << 20)\nn = 0\ntry:\n    with open('/dev/shm/fill', 'wb') as fh:\n"
+            "        for _ in range(64):\n            fh.write(chunk)\n            fh.flush()\n            n += 1\n"
+            "except OSError as exc:\n    print('full at', n, exc.errno)\n")
+    out = _run(tmp_path, code, "bwrap", shm_mb=16)
+    assert out.log.strip().startswith("full at") and out.log.split()[2] in ("15", "16"), out.log

@@ -165,6 +165,7 @@ class Box:
     mode: str = field(default_factory=mode)
     dirs: dict = field(default_factory=dict)
     unit: str = ""
+    fallback: str = ""  # why this submission fell back to polling, if it did
 
     def __enter__(self) -> Box:
         if self.mode == "cgroup-v1":
@@ -188,9 +189,9 @@ class Box:
                 (self.dirs["cpuset"] / "cpuset.cpus").write_text(cpus)
                 (self.dirs["cpuset"] / "cpuset.mems").write_text(
                     (self.dirs["cpuset"].parent / "cpuset.mems").read_text().strip())
-            except OSError:
+            except OSError as exc:  # a controller refused (a full cgroup tree, a read-only mount): poll instead
                 self.__exit__()
-                raise
+                self.mode, self.fallback = "polling", f"the cgroup could not be made ({exc.strerror or exc})"
         elif self.mode == "cgroup-v2-delegated":
             self.unit = f"robocourse-sub-{uuid.uuid4().hex[:10]}"
         return self
@@ -273,7 +274,8 @@ class Box:
         cpus = ",".join(map(str, self.cpus)) if self.cpus else ""
         if self.mode == "polling":
             return (f"polling: {self.memory_mb} MB of resident memory (shared memory outside the sandbox's /dev/shm "
-                    f"not counted), processes polled" + (f", CPU {cpus} by affinity (not enforced)" if cpus else ""))
+                    f"not counted), processes polled" + (f", CPU {cpus} by affinity (not enforced)" if cpus else "")
+                    + (f"; {self.fallback}" if self.fallback else ""))
         share = len(self.cpus) if self.cpus else 1
         return (f"{self.mode}: {self.memory_mb} MB incl. shared memory, {self.max_processes} tasks, {share} CPU(s)"
                 + (f": CPU {cpus} to itself" if cpus else ""))
