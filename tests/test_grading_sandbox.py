@@ -185,3 +185,18 @@ def test_cgroups_left_by_a_killed_grader_are_swept_and_live_ones_kept():
         for d in (stale, live):
             if d.exists():
                 d.rmdir()
+
+
+def test_a_cgroup_that_refuses_a_process_falls_back_to_polling_before_the_submission_starts(monkeypatch):
+    from robocourse.grading import resources
+
+    if resources.mode() != "cgroup-v1":
+        pytest.skip(f"cgroup v1 is not writable here (mode {resources.mode()})")
+
+    def refuse(self):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(resources.Box, "join", refuse)
+    with resources.Box(512, 64, None, mode="cgroup-v1") as box:
+        assert box.mode == "polling" and box.dirs == {}
+        assert "the cgroup refused a process" in box.describe()
