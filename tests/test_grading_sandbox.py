@@ -185,3 +185,52 @@ def test_cgroups_left_by_a_killed_grader_are_swept_and_live_ones_kept():
         for d in (stale, live):
             if d.exists():
                 d.rmdir()
+
+
+def test_a_timing_submission_runs_alone_and_one_waiting_goes_before_later_plain_ones():
+    """The CPU gate behind 'a timing check gets the machine to itself': a spinner beside an honest timing
+    check slowed it from 9/9 to 6/9 (issue 26). Plain A runs; timing T waits for A; plain B, asking after T,
+    waits for T; T holds every allowed CPU, the plain ones none in particular."""
+    import time
+
+    from robocourse.grading import resources
+
+    gate = resources.CpuGate()
+    log: list = []
+    release = {k: threading.Event() for k in "ATB"}
+    started = {k: threading.Event() for k in "ATB"}
+
+    def run(name, exclusive):
+        with gate.hold(exclusive) as cpus:
+            log.append(("start", name, cpus))
+            started[name].set()
+            release[name].wait(10)
+        log.append(("end", name))
+
+    def until(cond):
+        deadline = time.monotonic() + 10
+        while not cond():
+            assert time.monotonic() < deadline, log
+            time.sleep(0.01)
+
+    threads = {"A": threading.Thread(target=run, args=("A", False))}
+    threads["A"].start()
+    started["A"].wait(10)
+    threads["T"] = threading.Thread(target=run, args=("T", True))
+    threads["T"].start()
+    until(lambda: gate._waiting == 1)
+    threads["B"] = threading.Thread(target=run, args=("B", False))
+    threads["B"].start()
+    time.sleep(0.2)
+    assert [e[:2] for e in log] == [("start", "A")]  # neither T nor B beside A's run... B waits behind T
+    release["A"].set()
+    started["T"].wait(10)
+    time.sleep(0.2)
+    assert not started["B"].is_set()  # nothing beside the timing submission
+    release["T"].set()
+    release["B"].set()
+    for t in threads.values():
+        t.join(10)
+    assert [e[:2] for e in log] == [("start", "A"), ("end", "A"), ("start", "T"), ("end", "T"), ("start", "B"),
+                                    ("end", "B")]
+    assert log[2][2] == tuple(resources.allowed_cpus()) and log[0][2] is None and log[4][2] is None
