@@ -234,3 +234,18 @@ def test_a_timing_submission_runs_alone_and_one_waiting_goes_before_later_plain_
     assert [e[:2] for e in log] == [("start", "A"), ("end", "A"), ("start", "T"), ("end", "T"), ("start", "B"),
                                     ("end", "B")]
     assert log[2][2] == tuple(resources.allowed_cpus()) and log[0][2] is None and log[4][2] is None
+
+
+def test_a_cgroup_that_refuses_a_process_falls_back_to_polling_before_the_submission_starts(monkeypatch):
+    from robocourse.grading import resources
+
+    if resources.mode() != "cgroup-v1":
+        pytest.skip(f"cgroup v1 is not writable here (mode {resources.mode()})")
+
+    def refuse(self):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(resources.Box, "join", refuse)
+    with resources.Box(512, 64, None, mode="cgroup-v1") as box:
+        assert box.mode == "polling" and box.dirs == {}
+        assert "the cgroup refused a process" in box.describe()

@@ -227,6 +227,15 @@ class Box:
             except OSError as exc:  # a controller refused (a full cgroup tree, a read-only mount): poll instead
                 self.__exit__()
                 self.mode, self.fallback = "polling", f"the cgroup could not be made ({exc.strerror or exc})"
+            else:
+                # a cgroup can exist and still refuse a process (an empty cpuset, a foreign hierarchy): a
+                # throwaway child joins first, so the submission's own start never fails in preexec_fn
+                try:
+                    subprocess.run(["true"], preexec_fn=self.join, check=True, timeout=10,
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                except (OSError, subprocess.SubprocessError) as exc:
+                    self.__exit__()
+                    self.mode, self.fallback = "polling", f"the cgroup refused a process ({exc})"
         elif self.mode == "cgroup-v2-delegated":
             self.unit = f"robocourse-sub-{uuid.uuid4().hex[:10]}"
         return self
