@@ -242,10 +242,15 @@ def test_a_cgroup_that_refuses_a_process_falls_back_to_polling_before_the_submis
     if resources.mode() != "cgroup-v1":
         pytest.skip(f"cgroup v1 is not writable here (mode {resources.mode()})")
 
-    def refuse(self):
-        raise PermissionError(13, "Permission denied")
+    real = resources.Path.write_text
 
-    monkeypatch.setattr(resources.Box, "join", refuse)
+    def refuse_cpuset(path, text, *args, **kwargs):
+        if path.name == "cgroup.procs" and "cpuset" in path.parts:
+            raise OSError(28, "No space left on device", str(path))
+        return real(path, text, *args, **kwargs)
+
+    monkeypatch.setattr(resources.Path, "write_text", refuse_cpuset)
     with resources.Box(512, 64, None, mode="cgroup-v1") as box:
         assert box.mode == "polling" and box.dirs == {}
-        assert "the cgroup refused a process" in box.describe()
+        # the parent saw the errno and names the controller (preexec_fn would have said only "an exception")
+        assert "the cgroup refused a process (its cpuset cgroup: No space left on device)" in box.describe()
