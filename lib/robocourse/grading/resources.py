@@ -75,6 +75,39 @@ def _v1_usable() -> bool:
     return True
 
 
+def sweep_stale_v1(min_age_s: float = 60.0) -> list[Path]:
+    """Remove empty ``robocourse-sub-<pid>-*`` cgroups whose grader is gone (a grader killed by SIGKILL
+    cannot clean up after itself); returns what was removed. Only empty ones: rmdir refuses the rest."""
+    import time
+
+    removed = []
+    for c in V1_CONTROLLERS:
+        base = _own_v1_path(c)
+        if base is None:
+            continue
+        try:
+            entries = list(base.glob("robocourse-sub-*"))
+        except OSError:
+            continue
+        for d in entries:
+            try:
+                pid = int(d.name.split("-")[2])
+                os.kill(pid, 0)
+                continue  # its grader still runs
+            except ProcessLookupError:
+                pass
+            except (ValueError, IndexError, PermissionError):
+                continue
+            try:
+                if time.time() - d.stat().st_mtime < min_age_s:
+                    continue
+                d.rmdir()
+                removed.append(d)
+            except OSError:
+                pass
+    return removed
+
+
 def _v2_delegated_usable() -> bool:
     if os.geteuid() == 0 or shutil.which("systemd-run") is None:
         return False
@@ -95,6 +128,8 @@ def mode() -> str:
         else:
             _MODE.append("cgroup-v1" if _v1_usable() else "cgroup-v2-delegated" if _v2_delegated_usable()
                          else "polling")
+            if _MODE[0] == "cgroup-v1":
+                sweep_stale_v1()
     return _MODE[0]
 
 
@@ -165,6 +200,7 @@ class Box:
     mode: str = field(default_factory=mode)
     dirs: dict = field(default_factory=dict)
     unit: str = ""
+    fallback: str = ""  # why this submission fell back to polling, if it did
 
     def __enter__(self) -> Box:
         if self.mode == "cgroup-v1":
@@ -188,9 +224,18 @@ class Box:
                 (self.dirs["cpuset"] / "cpuset.cpus").write_text(cpus)
                 (self.dirs["cpuset"] / "cpuset.mems").write_text(
                     (self.dirs["cpuset"].parent / "cpuset.mems").read_text().strip())
-            except OSError:
+            except OSError as exc:  # a controller refused (a full cgroup tree, a read-only mount): poll instead
                 self.__exit__()
-                raise
+                self.mode, self.fallback = "polling", f"the cgroup could not be made ({exc.strerror or exc})"
+            else:
+                # a cgroup can exist and still refuse a process (an empty cpuset, a foreign hierarchy): a
+                # throwaway child joins first, so the submission's own start never fails in preexec_fn
+                try:
+                    subprocess.run(["true"], preexec_fn=self.join, check=True, timeout=10,
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                except (OSError, subprocess.SubprocessError) as exc:
+                    self.__exit__()
+                    self.mode, self.fallback = "polling", f"the cgroup refused a process ({exc})"
         elif self.mode == "cgroup-v2-delegated":
             self.unit = f"robocourse-sub-{uuid.uuid4().hex[:10]}"
         return self
@@ -230,7 +275,19 @@ class Box:
         return cmd + ["--"] + argv
 
     def join(self) -> None:
-        """In the sandbox's first process, before exec (``preexec_fn``): enter the cgroups, pin the CPU."""
+        """In the sandbox's first process, before exec (``preexec_fn``): drop any real-time policy, enter the
+        cgroups, pin the CPU.
+
+        A forked child inherits its parent's scheduling policy. A grader left at SCHED_FIFO/RR (chapter 1's
+        tools run as root in the same process, a course run under ``chrt``) would hand it to the submission,
+        and a fresh v1 ``cpu`` cgroup has no real-time budget (``cpu.rt_runtime_us`` = 0): the kernel refuses
+        a real-time task there with EINVAL, so every submission failed to start ("Exception occurred in
+        preexec_fn"). A submission starts at SCHED_OTHER; asking for more inside is the student's code's
+        business (refused there, reported, carried on: chapter 1's unprivileged path).
+        """
+        if hasattr(os, "sched_setscheduler"):
+            with contextlib.suppress(OSError):  # lowering one's own policy is always allowed
+                os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
         pid = str(os.getpid())
         for d in self.dirs.values():
             (d / "cgroup.procs").write_text(pid)
@@ -273,7 +330,8 @@ class Box:
         cpus = ",".join(map(str, self.cpus)) if self.cpus else ""
         if self.mode == "polling":
             return (f"polling: {self.memory_mb} MB of resident memory (shared memory outside the sandbox's /dev/shm "
-                    f"not counted), processes polled" + (f", CPU {cpus} by affinity (not enforced)" if cpus else ""))
+                    f"not counted), processes polled" + (f", CPU {cpus} by affinity (not enforced)" if cpus else "")
+                    + (f"; {self.fallback}" if self.fallback else ""))
         share = len(self.cpus) if self.cpus else 1
         return (f"{self.mode}: {self.memory_mb} MB incl. shared memory, {self.max_processes} tasks, {share} CPU(s)"
                 + (f": CPU {cpus} to itself" if cpus else ""))
