@@ -332,7 +332,10 @@ def _led_probe(inputs, LedServer):
             if not ready:
                 break
             fut = cli.call_async(SetLed.Request(led_id=led_id, state=state))
-            ex.spin_until_future_complete(fut, 1.0)
+            try:
+                ex.spin_until_future_complete(fut, 1.0)
+            except Exception:  # noqa: BLE001 - the server's callback raised; as in rclpy it
+                ex.spin_until_future_complete(fut, 1.0)   # leaves spin: the client hears why
             if not fut.done():
                 answers.append({"answered": False})
             elif fut.exception() is not None:
