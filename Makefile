@@ -12,7 +12,8 @@ KERNEL := robocourse
 LAB_FLAGS ?=
 # the lab's settings live in the venv, never in your home (robocourse/cli/lab.py says what each does)
 PYTEST_FLAGS ?=
-# parallel workers for make test (pytest-xdist); TEST_JOBS=0 runs everything in this process
+# parallel workers for make test (pytest-xdist, scheduled by xdist group: tests/conftest.py);
+# TEST_JOBS=0 runs everything in this process
 TEST_JOBS ?= 3
 
 .PHONY: lab lab-user test setup kernel exercises lint clean
@@ -47,7 +48,7 @@ lab-user:
 	fi
 
 test: $(STAMP)
-	$(PY) -X faulthandler -m pytest -n $(TEST_JOBS) $(PYTEST_FLAGS)
+	$(PY) -X faulthandler -m pytest -n $(TEST_JOBS) --dist loadgroup --no-loadscope-reorder $(PYTEST_FLAGS)
 
 exercises: $(STAMP)
 	$(VENV)/bin/robocourse exercises build

@@ -1,9 +1,12 @@
 """Shared test fixtures, the per-notebook time budget, and how the suite runs in parallel.
 
-Parallel runs (``make test`` runs pytest-xdist: ``-n $(TEST_JOBS) --dist loadgroup``):
+Parallel runs (``make test`` runs pytest-xdist: ``-n $(TEST_JOBS) --dist loadgroup
+--no-loadscope-reorder``; give the same two options to a ``pytest -n N`` of your own):
 
 - Every test module (and every notebook) is one unit of work, kept on one worker, so a
-  module-scoped fixture (a class graded once, a box started once) runs once.
+  module-scoped fixture (a class graded once, a box started once) runs once. A test with its own
+  ``@pytest.mark.xdist_group(name)`` is a unit of its own (for long, independent cases of one
+  module that can spread over the workers).
 - Units start longest first (the seconds each took in the last run, kept in pytest's cache;
   before any run, notebooks and modules marked ``slow`` first), so no long unit starts last.
 - ``@pytest.mark.serial`` (or ``pytestmark = pytest.mark.serial`` for a whole module) runs a
@@ -47,8 +50,21 @@ def root() -> Path:
 
 
 def _unit(nodeid: str) -> str:
-    """The unit of work a test belongs to: its module or notebook (xdist's '@group' suffix cut)."""
-    return nodeid.split("::")[0].split("@")[0]
+    """The unit of work a test belongs to: its xdist group when the id carries one (``...@group``,
+    as a worker reports it), else its module or notebook."""
+    tail = nodeid.split("::", 1)[-1]
+    if "@" in tail and tail.rfind("@") > tail.rfind("]"):
+        return tail.rsplit("@", 1)[1]
+    return nodeid.split("::")[0]
+
+
+def _item_unit(item) -> str:
+    """An explicit ``@pytest.mark.xdist_group(name)`` makes its own unit (tests of one module that
+    share no module fixture and may run on different workers); otherwise the module."""
+    mark = item.get_closest_marker("xdist_group")
+    if mark is not None:
+        return str(mark.args[0] if mark.args else mark.kwargs.get("name", "default"))
+    return _unit(item.nodeid)
 
 
 def _notebook_is_serial(path: Path, seen: dict = {}) -> bool:  # noqa: B006 - a per-process cache
@@ -60,19 +76,26 @@ def _notebook_is_serial(path: Path, seen: dict = {}) -> bool:  # noqa: B006 - a 
     return seen[path]
 
 
+def pytest_itemcollected(item):
+    """Notebook time limit, serial marks, one xdist group per module: set as each item is
+    collected, so xdist's own collection hook (which turns groups into ids) sees them."""
+    path = Path(str(getattr(item, "path", "")))
+    if path.suffix == ".ipynb":
+        # the safety-net limit for the whole notebook (nbmake's own is per cell)
+        item.add_marker(pytest.mark.timeout(NOTEBOOK_TIMEOUT_S))
+        if _notebook_is_serial(path):
+            item.add_marker(pytest.mark.serial)
+    if item.get_closest_marker("serial") is not None:
+        # serial wins over any group of its own: one group runs every serial test
+        item.own_markers[:] = [m for m in item.own_markers if m.name != "xdist_group"]
+        item.add_marker(pytest.mark.xdist_group(SERIAL_GROUP))
+    elif item.get_closest_marker("xdist_group") is None:
+        item.add_marker(pytest.mark.xdist_group(_unit(item.nodeid)))
+
+
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    """Notebook time limit, serial marks, one xdist group per module, longest units first."""
-    for item in items:
-        path = Path(str(getattr(item, "path", "")))
-        if path.suffix == ".ipynb":
-            # the safety-net limit for the whole notebook (nbmake's own is per cell)
-            item.add_marker(pytest.mark.timeout(NOTEBOOK_TIMEOUT_S))
-            if _notebook_is_serial(path):
-                item.add_marker(pytest.mark.serial)
-        serial = item.get_closest_marker("serial") is not None
-        item.add_marker(pytest.mark.xdist_group(SERIAL_GROUP if serial else _unit(item.nodeid)))
-
+    """Longest units first, serial tests last."""
     cache = getattr(config, "cache", None)
     seconds = cache.get(_CACHE_KEY, {}) if cache is not None else {}
 
@@ -82,15 +105,15 @@ def pytest_collection_modifyitems(config, items):
         return 10.0 if item.get_closest_marker("slow") else 1.0
 
     cost: dict[str, float] = {}
-    for item in items:
-        unit = _unit(item.nodeid)
-        cost.setdefault(unit, seconds.get(unit, guess(item)))
-    first_seen = {}
+    first_seen: dict[str, int] = {}
+    units = {}
     for i, item in enumerate(items):
-        first_seen.setdefault(_unit(item.nodeid), i)
+        unit = units[item] = _item_unit(item)
+        cost.setdefault(unit, seconds.get(unit, guess(item)))
+        first_seen.setdefault(unit, i)
     # serial tests last; the rest by unit, longest first; order inside a unit kept
-    items.sort(key=lambda it: (it.get_closest_marker("serial") is not None, -cost[_unit(it.nodeid)],
-                               first_seen[_unit(it.nodeid)]))
+    items.sort(key=lambda it: (it.get_closest_marker("serial") is not None, -cost[units[it]],
+                               first_seen[units[it]]))
 
 
 # -- the serial group: a reader/writer lock shared by this run's workers ---------------------------

@@ -36,21 +36,8 @@ NOTEBOOKS = sorted(p.relative_to(ROOT).as_posix() for p in
                    [*ROOT.glob("chapters/*.ipynb"), *ROOT.glob("solutions/*.ipynb")])
 
 KNOWN_VIOLATIONS: dict[str, list[str]] = {
-    'chapters/03_mycar_comm.ipynb': [
-        "- **limits**: commands are clamped to [-1, 1] (the library's `MotorDriver.set_motor_speeds` does that, and refuses NaN), and `max_duty` keeps a 7.4 V motor on an 8.4 V battery below its rating.",
-        "For motion we need a car: `robocourse.sim.car.MujocoCar` is a MuJoCo model (chassis, two velocity-servoed wheels with a torque limit, casters), `MujocoMotorDriver` drives its wheels through the same `MotorDriver` interface, and the library's `SimulatorNode` steps the physics on a timer (its `rate_hz`, 200 Hz by default) and publishes **`/ground_truth`**: the chassis pose as MuJoCo knows it, in the `world` frame.",
-    ],
     'chapters/05_hardware_drivers.ipynb': [
         '| transport | UDP, 1 kHz, synchronous | TCP: RTDE state stream 500 Hz + servoj targets |',
-    ],
-    'solutions/03_mycar_exercises.ipynb': [
-        '- declares the parameters `wheel_base` (float, default 0.15 m) and `publish_rate` (float, default 50.0 Hz);',
-        'The grader publishes three random arcs at 10 Hz with a random `wheel_base` and `publish_rate`, one NaN command, then stops, and compares every `/wheel_speeds` message and the `/odom` path with the integrated commands.',
-        '- **execute** (an `async def`): every 0.05 s (`await self.sleep_async(0.05)`) read the latest odometry; if a cancel was requested, stop the car (a zero Twist), call `goal_handle.canceled()` and return a result with `success=False`; publish `percent_complete` feedback (0 at the start, 100 at the goal); once within 5 cm of the goal *position* (heading does not matter here) stop, `succeed()` and return `success=True`; otherwise turn towards the goal and drive when roughly facing it.',
-        'The grader runs the library\'s driver node on a kinematic motor driver beside your server and sends a reachable goal, a goal in `"map"`, a NaN goal and a far goal it cancels after 1 s.',
-    ],
-    'solutions/05_hardware_drivers_exercises.ipynb': [
-        "The Franka-style box sends a STATE every 1 ms and wants a COMMAND carrying that state's `seq` before its next tick (`robocourse.drivers.franka_protocol` documents the bytes; use its `HEADER`, `state_struct(n)`, `encode_command` and constants).",
     ],
 }
 

@@ -475,3 +475,38 @@ def test_a_taken_address_is_refused_with_the_ports_named():
             start_ur_box(host=b.host, physics=False)
     finally:
         b.stop()
+
+
+def test_the_other_supported_control_calls(fresh_box):
+    r = rtde_receive.RTDEReceiveInterface(fresh_box.host)
+    c = control(fresh_box.host)
+    try:
+        assert c.getRobotStatus() == 3                                 # power on + program running
+        assert c.getStepTime() == pytest.approx(0.002) or c.getStepTime() == 0.0   # RT: read before the reply
+        assert c.setTcp([0, 0, 0.1, 0, 0, 0])
+        assert c.getTCPOffset() == pytest.approx([0, 0, 0.1, 0, 0, 0])
+        np.testing.assert_allclose(c.getForwardKinematics(), r.getActualTCPPose(), atol=1e-3)
+        # ur_rtde sends getActualToolFlangePose as a real-time command and reads the result registers
+        # without waiting for the robot's answer (on a real UR too): the second call returns the first's
+        c.getActualToolFlangePose()
+        time.sleep(0.02)
+        flange = np.array(c.getActualToolFlangePose())
+        tcp = np.array(r.getActualTCPPose())
+        assert abs(np.linalg.norm(tcp[:3] - flange[:3]) - 0.1) < 1e-3   # the TCP 10 cm out along the flange z
+        assert c.setPayload(1.5, [0, 0, 0.05])
+        assert wait_for(lambda: r.getPayload() == 1.5 and r.getPayloadCog() == [0, 0, 0.05])
+        assert c.isJointsWithinSafetyLimits(HOME) and not c.isJointsWithinSafetyLimits([0, 0, 4.0, 0, 0, 0])
+        assert c.isSteady()
+        goal = list(np.array(HOME) + [0.6, 0, 0, 0, 0, 0])
+        assert c.moveJ(goal, 0.5, 1.0, True)
+        time.sleep(0.3)
+        c.stopJ(2.0, False)                                            # synchronous (ur_rtde returns nothing)
+        assert r.getTargetQd() == [0.0] * 6 or wait_for(lambda: r.getTargetQd() == [0.0] * 6, 0.1)
+        assert r.getTargetQ()[0] < goal[0] - 0.1
+        assert wait_for(lambda: np.max(np.abs(r.getActualQd())) < 1e-4, 3.0)
+        assert c.zeroFtSensor()                                        # at rest: the reading becomes ~0
+        assert wait_for(lambda: np.max(np.abs(r.getActualTCPForce())) < 0.05)
+    finally:
+        c.stopScript()
+        c.disconnect()
+        r.disconnect()

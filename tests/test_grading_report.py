@@ -64,12 +64,14 @@ def test_expand_lists_non_notebooks_and_skips_checkpoints(tmp_path):
 
 def test_journal_survives_a_half_written_line_and_reloads(tmp_path):
     j = Journal(tmp_path / "g.csv.journal.jsonl")
-    j.append("k1", _grade("ana"))
+    j.append("k1", _grade("ana"), {"time_limit": 60})
     with open(j.path, "a") as fh:
         fh.write('{"key": "k2", "grade": {"stud')  # the grader was killed mid-line
     again = Journal(j.path)
     assert list(again.done) == ["k1"]
-    g = Grade.from_json(again.done["k1"])
+    options, saved = again.done["k1"]
+    assert options == {"time_limit": 60}
+    g = Grade.from_json(saved)
     assert (g.student, g.points, g.max_points) == ("ana", 3.0, 5.0)
 
 

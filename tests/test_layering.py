@@ -1,8 +1,8 @@
 """Dependency direction (DESIGN.md): foundation packages never import a chapter package, and a
 chapter package imports no other chapter package but ``control`` (which imports none).
 
-Foundations: rt, msgs, bus, sim, viz, grading, notebook. Chapters: pendulum, mycar, control, ethercat,
-drivers, rl. Imports are read from the source (absolute, relative, and the
+Foundations: rt, msgs, bus, sim, viz, grading, notebook, launch. Chapters: pendulum, mycar, control,
+ethercat, drivers, rl. Imports are read from the source (absolute, relative, and the
 ``importlib.import_module("robocourse.<pkg>...")`` calls a loader makes), so an import inside a
 function counts too.
 """
@@ -12,7 +12,7 @@ from pathlib import Path
 
 import robocourse
 
-FOUNDATIONS = ("rt", "msgs", "bus", "sim", "viz", "grading", "notebook")
+FOUNDATIONS = ("rt", "msgs", "bus", "sim", "viz", "grading", "notebook", "launch")
 CHAPTERS = ("pendulum", "mycar", "control", "ethercat", "drivers", "rl")
 ROOT = Path(robocourse.__file__).parent
 

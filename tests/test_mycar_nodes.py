@@ -6,8 +6,10 @@ import math
 
 import pytest
 
-from robocourse.bus import Context, Parameter
+from robocourse.bus import Context, Parameter, SingleThreadedExecutor
 from robocourse.bus.action import ActionClient
+from robocourse.launch import LaunchError
+from robocourse.msgs.action_msgs import GoalStatus
 from robocourse.msgs.geometry_msgs import Twist
 from robocourse.mycar.launch import launch, load_parameters
 from robocourse.mycar.mission import goal_for, run_mission
@@ -133,7 +135,7 @@ def test_parameters_are_validated():
     assert not node.set_parameters([Parameter("wheel_radius", value=0.0)])[0].successful
     assert node.set_parameters([Parameter("wheel_base", value=0.2)])[0].successful
     assert node.geometry.wheel_base == 0.2
-    with pytest.raises(ValueError, match="needs a driver object"):
+    with pytest.raises(ValueError, match="no SimulatorNode runs in this context"):
         DriverNode(context=ctx, name="driver_mj", parameter_overrides=[Parameter("driver", value="mujoco")])
     ctx.shutdown()
 
@@ -145,7 +147,8 @@ def test_launch_file_errors_are_clear(tmp_path):
     bad.write_text("driver_node:\n  wheel_base: 0.2\n")
     with pytest.raises(ValueError, match="ros__parameters"):
         load_parameters(bad)
-    with pytest.raises(ValueError, match="use 'simulated' or 'mujoco'"):
+    with pytest.raises(LaunchError, match=r"\[driver_node-2\] mycar/driver_node failed to start: ValueError: driver "
+                                          r"parameter 'pwm': use 'simulated'"):
         launch(overrides={"driver_node": {"driver": "pwm"}})
 
 
@@ -254,7 +257,7 @@ def test_navigation_reports_the_true_error_beside_the_odometry_one(car):
 
 
 def test_navigation_without_ground_truth_says_so():
-    c = launch(overrides={"driver_node": {"driver": "simulated"}})
+    c = launch(use_sim=False)
     c.client = c.context.create_node("test_client")
     c.executor.add_node(c.client)
     _, res, _ = _navigate(c, goal_for(0.3, 0.0))
@@ -263,13 +266,53 @@ def test_navigation_without_ground_truth_says_so():
     c.context.try_shutdown()
 
 
-def test_tf_buffer_chains_and_inverts():
-    from robocourse.mycar.navigation import TfBuffer2D, compose, invert
+def test_the_shipped_calibration_is_what_the_spin_test_measures():
+    from robocourse.mycar import calibration
 
-    a = (1.0, 2.0, 0.7)
-    assert compose(a, invert(a)) == pytest.approx((0.0, 0.0, 0.0), abs=1e-12)
-    buf = TfBuffer2D()
-    buf.edges = {("map", "odom"): (1.0, 0.0, math.pi / 2), ("odom", "base_link"): (0.5, 0.0, 0.0)}
-    assert buf.lookup("map", "base_link") == pytest.approx((1.0, 0.5, math.pi / 2))
-    assert buf.lookup("base_link", "map") == pytest.approx(invert((1.0, 0.5, math.pi / 2)))
-    assert buf.lookup("odom", "camera") is None
+    ratios = {}
+    for mult in (1.0, None):   # uncalibrated, then the parameter file's multiplier
+        car = launch(overrides={"driver_node": {"wheel_separation_multiplier": mult}} if mult else None)
+        node = car.context.create_node("calibrator")
+        car.executor.add_node(node)
+        runs = calibration.measure(node, car.executor, [(0.0, 0.5), (0.0, 1.0), (0.0, 2.0)], seconds=2.0)
+        ratios[mult] = [r.yaw_ratio for r in runs]
+        car.context.try_shutdown()
+    # the same ratio at every turn rate: a calibration error, and the file's multiplier undoes it
+    assert max(ratios[1.0]) - min(ratios[1.0]) < 0.01 and 0.96 < min(ratios[1.0]) < 0.99
+    assert all(abs(r - 1.0) < 0.006 for r in ratios[None]), ratios
+
+
+def test_acceleration_limits_ramp_commands_and_the_watchdog_still_stops_at_once():
+    ctx = Context(use_sim_time=True)
+    ctx.log_to_stderr = False
+    node = DriverNode(context=ctx, parameter_overrides=[Parameter("max_linear_acceleration", value=0.5)])
+    teleop = ctx.create_node("teleop")
+    pub = teleop.create_publisher(Twist, "/cmd_vel", 10)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    ex.add_node(teleop)
+    cmd = Twist()
+    cmd.linear.x = 0.2
+    seen = []
+    for _ in range(6):
+        pub.publish(cmd)
+        ex.spin_for(0.1)
+        seen.append(round(node.applied[0], 6))
+    assert seen == [0.05, 0.1, 0.15, 0.2, 0.2, 0.2]     # 0.5 m/s^2: 0.05 m/s per 0.1 s
+    ex.spin_for(0.25)                                 # silence: the watchdog stops without a ramp
+    assert node.applied == (0.0, 0.0) and node.driver.left == node.driver.right == 0.0
+
+
+def test_a_goal_the_car_cannot_reach_is_aborted_not_looped():
+    car = launch(overrides={"navigation_server": {"stall_timeout": 1.0}})
+    car.context.log_to_stderr = False
+    car.executor.remove_node(car.driver)              # the driver died: no /odom, motors never move
+    car.client = car.context.create_node("test_client")
+    car.executor.add_node(car.client)
+    start = car.client.get_clock().now().nanoseconds
+    _, res, _ = _navigate(car, goal_for(1.0, 0.0))
+    took = (car.client.get_clock().now().nanoseconds - start) * 1e-9
+    assert res.status == GoalStatus.STATUS_ABORTED and not res.result.success
+    assert res.result.message.startswith("stalled: odometry shows no motion for 1 s")
+    assert 1.0 < took < 1.5
+    car.context.try_shutdown()

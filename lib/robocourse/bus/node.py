@@ -1,7 +1,9 @@
 """Node: the unit that owns publishers, subscriptions, timers, services, clients, parameters.
 
-rclpy counterpart: ``rclpy.node.Node(node_name, *, context, namespace, parameter_overrides,
-allow_undeclared_parameters, automatically_declare_parameters_from_overrides)`` with the same
+rclpy counterpart: ``rclpy.node.Node(node_name, *, context, cli_args, namespace,
+parameter_overrides, allow_undeclared_parameters, automatically_declare_parameters_from_overrides)``
+(``cli_args``: ``--ros-args`` remaps, ``__node``/``__ns``, ``-p`` and ``--params-file``, see
+:mod:`robocourse.bus.arguments`) with the same
 ``create_*``/``destroy_*``, graph queries and parameter methods. Additions: ``create_task``,
 ``sleep_async(seconds)`` (an awaitable sleep on the node's clock, handy in coroutine callbacks
 under simulated time) and ``context`` defaulting to the one from :func:`robocourse.bus.init`.
@@ -35,6 +37,7 @@ list both.
 from __future__ import annotations
 
 from robocourse.bus import _args
+from robocourse.bus import arguments as _arguments
 from robocourse.bus import names as _names
 from robocourse.bus.callback_groups import MutuallyExclusiveCallbackGroup
 from robocourse.bus.clock import ClockType, ROSClock
@@ -83,7 +86,7 @@ class TopicEndpointInfo:
 
 
 class Node(ParameterMixin):
-    def __init__(self, node_name: str, *, context=None, namespace: str | None = None,
+    def __init__(self, node_name: str, *, context=None, cli_args=None, namespace: str | None = None,
                  parameter_overrides=None, allow_undeclared_parameters: bool = False,
                  automatically_declare_parameters_from_overrides: bool = False,
                  start_parameter_services: bool = True, use_global_arguments: bool = True,
@@ -91,8 +94,10 @@ class Node(ParameterMixin):
         self._context = context if context is not None else get_default_context()
         if not self._context.ok():
             raise RuntimeError("cannot create a node on a context that was shut down")
-        self._name = _names.validate_node_name(node_name)
-        self._namespace = _names.normalize_namespace(namespace)
+        _names.validate_node_name(node_name)
+        self._ros_args = _arguments.parse_ros_args(cli_args)
+        self._name = _names.validate_node_name(self._ros_args.node_name(node_name) or node_name)
+        self._namespace = _names.normalize_namespace(self._ros_args.namespace(node_name) or namespace)
         self._executor = None
         self._destroyed = False
         self.default_callback_group = MutuallyExclusiveCallbackGroup()
@@ -125,6 +130,11 @@ class Node(ParameterMixin):
                 self._logger._rosout = self._rosout_publisher
             self._parameter_event_publisher = self.create_publisher(
                 ParameterEvent, "/parameter_events", qos_profile_parameter_events)
+            from_args = _arguments.parameters_for(self._ros_args, fq)
+            if from_args:   # files and -p first; parameter_overrides win (rclpy's order)
+                given = {p.name for p in parameter_overrides or [] if isinstance(p, Parameter)}
+                parameter_overrides = [Parameter(k, value=v) for k, v in from_args.items()
+                                       if k not in given] + list(parameter_overrides or [])
             self._init_parameters(parameter_overrides, allow_undeclared_parameters,
                                   automatically_declare_parameters_from_overrides)
             self.declare_parameter("use_sim_time", self._context.use_sim_time,
@@ -173,10 +183,17 @@ class Node(ParameterMixin):
         return self._clock
 
     def resolve_topic_name(self, topic: str, *, only_expand: bool = False) -> str:
-        return _names.expand_topic_name(topic, self._name, self._namespace)
+        """Expanded and (unless ``only_expand``) remapped by the node's ``-r`` rules, as rclpy."""
+        name = _names.expand_topic_name(topic, self._name, self._namespace)
+        if only_expand or not self._ros_args.remaps:
+            return name
+        return _arguments.remap_name(self._ros_args.remaps, name, self._name, self._namespace, is_service=False)
 
     def resolve_service_name(self, service: str, *, only_expand: bool = False) -> str:
-        return _names.expand_topic_name(service, self._name, self._namespace, is_service=True)
+        name = _names.expand_topic_name(service, self._name, self._namespace, is_service=True)
+        if only_expand or not self._ros_args.remaps:
+            return name
+        return _arguments.remap_name(self._ros_args.remaps, name, self._name, self._namespace, is_service=True)
 
     def _check_alive(self):
         if self._destroyed:

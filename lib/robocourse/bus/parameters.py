@@ -63,9 +63,9 @@ class InvalidParameterValueException(ParameterException):
 
 
 class InvalidParameterTypeException(ParameterException):
-    def __init__(self, parameter, expected):
-        super().__init__(f"Trying to set parameter '{parameter.name}' of type "
-                         f"'{parameter.type_.name}', expecting type '{expected}'")
+    def __init__(self, parameter, expected, hint: str = ""):
+        super().__init__(f"Trying to set parameter '{parameter.name}' to '{parameter.value}' of type "
+                         f"'{parameter.type_.name}', expecting type '{expected}'{hint}")
 
 
 class ParameterImmutableException(ParameterException):
@@ -293,9 +293,18 @@ class ParameterMixin:
                 raise InvalidParameterValueException(full, value, "parameter names must be non-empty")
             if full in self._parameters:
                 raise ParameterAlreadyDeclaredException([full])
-            if not ignore_override and full in self._overrides:
-                value = self._overrides[full].value
             ptype = _types[i] if _types and _types[i] is not None else None
+            if not ignore_override and full in self._overrides:
+                declared = ptype if ptype is not None else (_infer_type(value) if value is not None else None)
+                override = self._overrides[full]
+                if declared is not None and not desc.dynamic_typing and override.type_ != declared and not (
+                        declared == ParameterType.DOUBLE_ARRAY and override.type_ == ParameterType.INTEGER_ARRAY):
+                    # rclpy refuses an override of another type than the declared one (static typing)
+                    hint = ""
+                    if declared == ParameterType.DOUBLE and override.type_ == ParameterType.INTEGER:
+                        hint = f"; write {override.value}.0 (a YAML 1 is an integer, 1.0 a double)"
+                    raise InvalidParameterTypeException(override, declared.name, hint)
+                value = override.value
             if value is None and ptype is None and not desc.dynamic_typing:
                 if desc.type:
                     ptype = ParameterType(desc.type)

@@ -1,4 +1,6 @@
-"""``robocourse grade SUBMISSIONS... [-j N] [--out grades.csv] [--feedback DIR]`` (otter grade).
+"""``robocourse grade SUBMISSIONS... [-j N] [--out grades.csv] [--feedback DIR]`` (otter grade), and
+``robocourse grade export-gradescope CHAPTER [--out autograder.zip]`` (otter generate: a Gradescope
+autograder for classes past one machine).
 
 Every submission runs in its own bubblewrap sandbox (``--sandbox auto``); the run summary
 says loudly if any could not be. Rows go to ``<out>.journal.jsonl`` as each submission
@@ -27,6 +29,11 @@ def register(sub):
     p.add_argument("--cell-timeout", type=float, default=120.0, help="seconds per cell (default 120)")
     p.add_argument("--memory", type=int, default=4096, help="memory for the whole submission in MB (default 4096)")
     p.add_argument("--max-processes", type=int, default=64, help="processes per submission (default 64)")
+    p.add_argument("--work-mb", type=int, default=1024, help="size of each submission's own folder and /tmp in MB "
+                                                             "(default 1024)")
+    p.add_argument("--shm-mb", type=int, default=256, help="size of each submission's own /dev/shm in MB (default 256)")
+    p.add_argument("--seed-salt", default="", help="a course's own salt for the draws (default none): the same "
+                                                   "notebook always draws the same inputs for a given salt")
     p.add_argument("--sandbox", choices=["auto", "bwrap", "process"], default="auto",
                    help="auto: bubblewrap if it works here, else an unisolated process (reported); bwrap: "
                         "refuse to run without it; process: no isolation (trusted notebooks only)")
@@ -52,14 +59,36 @@ def _due(text):
         raise ValueError(f"--due {text!r} is not an ISO 8601 date; write e.g. --due 2026-11-20T23:59") from None
 
 
+def export_gradescope(args) -> int:
+    """``robocourse grade export-gradescope CHAPTER [--out autograder.zip]``: Gradescope's autograder zip."""
+    from robocourse.grading import gradescope
+
+    if len(args.submissions) != 2:
+        raise ValueError("usage: robocourse grade export-gradescope CHAPTER [--out autograder.zip] "
+                         "(CHAPTER: ch00, 00 or the notebook's name)")
+    chapter = args.submissions[1]
+    out = args.out if args.out != "grades.csv" else f"autograder_{chapter}.zip"
+    path = gradescope.export(chapter, out, solutions_dir=args.solutions, extra_dirs=args.checks,
+                             time_limit=args.time_limit, memory_mb=args.memory, max_processes=args.max_processes,
+                             cell_timeout=args.cell_timeout, salt=args.seed_salt)
+    print(f"-> {path}: upload it as the assignment's autograder (Gradescope: Configure Autograder > Zip file)")
+    return 0
+
+
 def run(args) -> int:
     from robocourse.grading.grader import grade
 
+    if args.submissions and args.submissions[0] == "export-gradescope":
+        return export_gradescope(args)
+
     bar = None
 
+    from robocourse.grading.report import for_terminal
+
     def progress(g):
-        note = f"  {g.status[:70]}" if g.status else ""
-        line = f"{g.student:>20}  {g.assignment:<26} {g.points:g}/{g.max_points:g}  ({g.seconds:.1f} s){note}"
+        note = f"  {g.status}" if g.status else ""
+        line = for_terminal(f"{g.student:>20}  {g.assignment:<26} {g.points:g}/{g.max_points:g}  ({g.seconds:.1f} s)"
+                            f"{note}")
         if bar is not None:
             bar.update(1)
             bar.write(line)
@@ -81,7 +110,8 @@ def run(args) -> int:
                        extra_dirs=args.checks, assignment=args.assignment, out=args.out,
                        feedback_dir=args.feedback, progress=progress, sandbox_mode=args.sandbox, force=args.force,
                        due=_due(args.due), late_penalty=args.late_penalty, overrides=args.overrides,
-                       canvas=args.canvas, gradescope=args.gradescope, resume=not args.restart)
+                       canvas=args.canvas, gradescope=args.gradescope, resume=not args.restart, work_mb=args.work_mb,
+                       shm_mb=args.shm_mb, salt=args.seed_salt)
     finally:
         if bar is not None:
             bar.close()

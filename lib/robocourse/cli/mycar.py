@@ -63,7 +63,7 @@ def run_teleop(args) -> int:
     from robocourse.mycar.launch import launch
     from robocourse.mycar.teleop import TeleopNode, run_terminal
 
-    car = launch(Context(), overrides={"driver_node": {"driver": "simulated"}})
+    car = launch(Context(), use_sim=False)
     teleop = TeleopNode(context=car.context)
     car.executor.add_node(teleop)
     spinner = threading.Thread(target=car.executor.spin, daemon=True)

@@ -34,6 +34,9 @@ from __future__ import annotations
 import json
 import socket
 import struct
+import time
+
+import numpy as np
 
 from . import rtde
 from . import ur_dashboard as dash
@@ -48,6 +51,7 @@ CONTROL_HZ = 500
 MAX_OUT = 1 << 18          # bytes queued for a client that does not read before packages are dropped
 MAX_SCRIPT = 1 << 20       # a program larger than this is refused
 MAX_LINE = 4096            # a dashboard line longer than this is refused
+TRACE_S = 10.0             # seconds of the arm's trajectory the box keeps for `robocourse trace`
 
 
 class _Conn:
@@ -95,6 +99,10 @@ class URBox(TickingBox):
         self.owner: dict[str, int] = {}          # input variable -> connection id
         self._next_id = 1
         self.tick_count = 0
+        # the last TRACE_S of (CLOCK_MONOTONIC time, actual_q, target_q, runtime_state): `robocourse trace`
+        n = int(TRACE_S * CONTROL_HZ)
+        self.trace_t, self.trace_q = np.full(n, np.nan), np.zeros((n, 6))
+        self.trace_target, self.trace_state = np.zeros((n, 6)), np.zeros(n, dtype=np.int8)
 
     def sockets(self) -> list:
         return [*self.listeners.values(), *self.conns]
@@ -285,6 +293,8 @@ class URBox(TickingBox):
             self.counters["dashboard_commands"] += 1
             if action == "stats":
                 reply = json.dumps(self.stats())
+            elif action == "trace":
+                reply = json.dumps(self.trace())
             self._send(c, (reply + "\n").encode())
             if action == "quit":
                 self._close(c)
@@ -313,6 +323,11 @@ class URBox(TickingBox):
     def tick(self) -> None:
         ctrl = self.ctrl
         ctrl.tick()
+        i = self.tick_count % self.trace_t.shape[0]
+        self.trace_t[i] = time.monotonic()
+        self.trace_q[i] = ctrl.arm.q
+        self.trace_target[i] = ctrl.motion.q
+        self.trace_state[i] = ctrl.runtime_state
         self.tick_count += 1
         msgs = ctrl.messages
         if msgs:
@@ -327,6 +342,14 @@ class URBox(TickingBox):
                 if self.tick_count % c.divisor == 0:
                     self._send(c, self._data_package(c))
                     self.counters["packages_sent"] += 1
+
+    def trace(self) -> dict:
+        """The kept trajectory in time order: t (CLOCK_MONOTONIC s, comparable with the clients' time.monotonic()
+        on this machine), actual q, target q (rad), runtime_state per tick."""
+        order = np.argsort(self.trace_t)
+        keep = order[np.isfinite(self.trace_t[order])]
+        return {"t": self.trace_t[keep].tolist(), "q": self.trace_q[keep].tolist(),
+                "target": self.trace_target[keep].tolist(), "runtime_state": self.trace_state[keep].tolist()}
 
     def stats(self) -> dict:
         rtde_conns = [c for c in self.conns.values() if c.kind == "rtde"]
@@ -348,16 +371,25 @@ def open_listeners(host: str | None) -> tuple[str, dict[str, socket.socket]]:
     return host, dict(zip(PORTS, socks))
 
 
-def read_stats(host: str, timeout: float = 2.0) -> dict:
-    """The box's counters, asked on the dashboard port (``robocourse stats``)."""
+def _ask_json(host: str, command: bytes, timeout: float) -> dict:
     with socket.create_connection((host, DASHBOARD_PORT), timeout=timeout) as s:
         f = s.makefile("rb")
         f.readline()                                  # welcome
-        s.sendall(b"robocourse stats\n")
+        s.sendall(command + b"\n")
         line = f.readline()
     if not line:
         raise ConnectionError(f"the UR-style box at {host} closed the dashboard connection")
     return json.loads(line)
 
 
-__all__ = ["PORTS", "URBox", "open_listeners", "read_stats"]
+def read_stats(host: str, timeout: float = 2.0) -> dict:
+    """The box's counters, asked on the dashboard port (``robocourse stats``)."""
+    return _ask_json(host, b"robocourse stats", timeout)
+
+
+def read_trace(host: str, timeout: float = 5.0) -> dict:
+    """The box's last seconds of trajectory (``robocourse trace``, see :meth:`URBox.trace`)."""
+    return _ask_json(host, b"robocourse trace", timeout)
+
+
+__all__ = ["PORTS", "URBox", "open_listeners", "read_stats", "read_trace"]

@@ -151,6 +151,7 @@ class URController:
         self.analog_out_types = 0             # bit i: output i in voltage (1) or current (0)
         self.slider = 1.0
         self.updated: dict[str, float] = {}   # input variable -> when an RTDE package last wrote it
+        self._inputs_seq = self._counted_seq = 0  # RTDE input packages applied / when commands were last counted
         self.watchdogs: dict[str, tuple[float, str]] = {}
         # payload, TCP, F/T
         if hasattr(arm, "sim"):
@@ -270,7 +271,9 @@ class URController:
             self._runtime_error(cmd, "is not supported by this UR-style box; supported: "
                                 + ", ".join(us.command_name(c) for c in sorted(us.SUPPORTED)))
             return False
-        self.count(f"cmd_{us.command_name(cmd).lower()}")
+        if cmd not in us.REALTIME or self._inputs_seq != self._counted_seq:   # RT commands repeat every cycle:
+            self._counted_seq = self._inputs_seq                                # count each one the client sent once
+            self.count(f"cmd_{us.command_name(cmd).lower()}")
         if cmd == 255:                                              # stopScript
             self.stop_program("stopScript()")
             return False
@@ -432,6 +435,7 @@ class URController:
     def apply_inputs(self, names, values) -> None:
         """An RTDE data package's input values (already decoded), in recipe order."""
         now = self.clock()
+        self._inputs_seq += 1
         v = dict(zip(names, values))
         upd = self.updated
         for name in names:

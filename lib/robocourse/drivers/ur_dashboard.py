@@ -14,7 +14,8 @@ Supported: ``PolyscopeVersion``, ``version``, ``get serial number``, ``get robot
 ``unlock protective stop``, ``close safety popup``, ``restart safety``, ``popup <text>``,
 ``close popup``, ``addToLog <text>``, ``quit``, ``shutdown`` (the box process exits).
 Anything else: ``could not understand: '<line>'``, as UR answers. Ours, not UR's:
-``robocourse stats`` answers one JSON line of the box's counters (tests and benchmarks).
+``robocourse stats`` answers one JSON line of the box's counters, ``robocourse trace`` one JSON
+line of its last seconds of trajectory (tests, benchmarks, the graders).
 
 ``play`` resumes a paused program (there is no loaded .urp to start); ``stop`` answers
 ``Stopped`` also when nothing runs (ur_rtde sends it after stopping its own script).
@@ -106,4 +107,6 @@ def answer(ctrl: uc.URController, line: str) -> tuple[str, str | None]:
         return "Shutting down", "shutdown"
     if low == "robocourse stats":
         return "", "stats"
+    if low == "robocourse trace":
+        return "", "trace"
     return f"could not understand: '{cmd}'", None

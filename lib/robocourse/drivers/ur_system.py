@@ -138,6 +138,7 @@ class URStyleSystem(_BoxSystem):
         if c is not None and self.active_mode is not None:
             try:
                 if c.isProgramRunning():
+                    c.kickWatchdog()      # the stop blocks the client: give it the watchdog's whole window
                     c.servoStop()
             except RuntimeError:
                 pass

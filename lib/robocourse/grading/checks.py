@@ -162,6 +162,9 @@ class Check:
     judge_time_limit: float = DEFAULT_JUDGE_S
     #: the module that registered the check (its judge side)
     module: str = ""
+    #: the check judges real time (a loop against a box on the wall clock): the grader gives its
+    #: submission a CPU to itself where it can, and says so where it cannot
+    timing: bool = False
 
     def make_inputs(self, rng: np.random.Generator | None = None):
         return self.inputs(rng if rng is not None else np.random.default_rng()) if self.inputs else None
@@ -257,7 +260,7 @@ def register(name: str, *, uses: tuple[str, ...] | str, probe: Callable[..., Any
              inputs: Callable[[np.random.Generator], Any] | None = None, weight: float | None = None,
              time_limit: float = 10.0, references: tuple[str, ...] = (), in_notebook: bool | None = None,
              schema=None, subtests: list[SubTest] | None = None, max_bytes: int = DEFAULT_MAX_BYTES,
-             judge_time_limit: float = DEFAULT_JUDGE_S):
+             judge_time_limit: float = DEFAULT_JUDGE_S, timing: bool = False):
     """Register check ``name`` ("chNN.short_name").
 
     Two forms. With ``subtests=[SubTest(...), ...]`` the check is registered at once (its
@@ -270,6 +273,7 @@ def register(name: str, *, uses: tuple[str, ...] | str, probe: Callable[..., Any
     reads it, and a check with a schema must keep its probe out of its judge's module (the
     grading sandbox hides judge modules: answer keys are never importable there).
     ``max_bytes``/``judge_time_limit``: the record's size budget and the judge's time budget.
+    ``timing``: the check judges real time; its submission gets a CPU to itself where possible.
     ``in_notebook``: default True for library checks, False for checks loaded from an
     instructor's folder (hidden checks the notebook never calls).
     """
@@ -310,7 +314,7 @@ def register(name: str, *, uses: tuple[str, ...] | str, probe: Callable[..., Any
         chk = Check(name, None if len(parts) != 1 or parts[0].name else parts[0].judge, probe, uses, inputs,
                     total, float(time_limit), description, tuple(references),
                     module.startswith("robocourse.") if in_notebook is None else bool(in_notebook), schema, parts,
-                    int(max_bytes), float(judge_time_limit), module)
+                    int(max_bytes), float(judge_time_limit), module, bool(timing))
         _REGISTRY[name] = chk
         return chk
 

@@ -28,6 +28,7 @@ import json
 import os
 import re
 import shutil
+import stat
 import subprocess
 import sys
 import tempfile
@@ -40,7 +41,7 @@ import nbformat
 import numpy as np
 
 from . import checks as checks_mod
-from . import runner, sandbox
+from . import resources, runner, sandbox
 from .exercises import CHECK_CALL, checks_in
 
 MAX_NOTEBOOK_BYTES = 50 * 1024 * 1024
@@ -70,6 +71,8 @@ class Grade:
     penalty: float = 0.0  # fraction of the points removed for lateness
     resumed: bool = False
     judge_seconds: float = 0.0  # the grader's own time judging this submission's records
+    resources: str = ""  # how memory, processes and CPU were limited (sandbox.Outcome.resources)
+    cpus: list = field(default_factory=list)  # the CPUs it had to itself (none: shared)
 
     @property
     def raw_points(self) -> float:
@@ -106,6 +109,8 @@ class GradeList(list):
     summary: str = ""
     ignored: list = []
     unknown: list = []
+    refused: list = []
+    regraded: list = []
 
 
 def load_assignments(solutions_dir: Path, extra_dirs=()) -> dict[str, Assignment]:
@@ -136,6 +141,7 @@ class Submission:
     student: str
     assignment: str | None
     notes: list
+    refused: str = ""  # why the file is not read at all (a symlink, a FIFO, ...)
 
 
 def identify(path: Path, given: Path | None, assignments: dict[str, Assignment],
@@ -167,21 +173,87 @@ def identify(path: Path, given: Path | None, assignments: dict[str, Assignment],
     return student, name, notes
 
 
-def expand(submissions) -> tuple[list[tuple[Path, Path | None]], list[Path]]:
-    """([(notebook, the folder it was found under or None)], [non-notebook files ignored])."""
-    found, ignored = [], []
+def _kind_of(path: Path) -> str:
+    """'' for a regular file; else what it is (a symlink is never followed)."""
+    try:
+        st = os.lstat(path)
+    except OSError as exc:
+        return f"unreadable ({exc.strerror})"
+    if stat.S_ISLNK(st.st_mode):
+        try:
+            target = os.readlink(path)
+        except OSError:
+            target = "?"
+        return f"a symbolic link (to {target!r}), not a file: unzip restores links from an archive; only the " \
+               "notebook itself is graded"
+    if stat.S_ISREG(st.st_mode):
+        return ""
+    kind = "a FIFO" if stat.S_ISFIFO(st.st_mode) else "a socket" if stat.S_ISSOCK(st.st_mode) else \
+        "a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode) else "not a regular file"
+    return f"{kind}, not a regular file"
+
+
+def scan(submissions) -> tuple[list[tuple[Path, Path | None]], list[Path], list[tuple[Path, Path | None, str]]]:
+    """(notebooks [(path, the folder it was found under or None)], other files ignored,
+    refused [(path, folder, why)]): symlinks, FIFOs and other non-regular files are never read
+    (a FIFO named x.ipynb would hang the reader); symlinked folders are not entered."""
+    found, ignored, refused = [], [], []
     for s in submissions:
         p = Path(s)
-        if p.is_dir():
-            for q in sorted(p.rglob("*")):
-                if ".ipynb_checkpoints" in q.parts or q.is_dir() or q.name.startswith("."):
-                    continue
-                (found.append((q, p)) if q.suffix == ".ipynb" else ignored.append(q))
+        if os.path.islink(p) or (p.exists() and not p.is_dir() and _kind_of(p)):
+            if p.suffix == ".ipynb" or os.path.islink(p):
+                refused.append((p, None, _kind_of(p)))
+            else:
+                ignored.append(p)
+        elif p.is_dir():
+            for root, dirs, files in os.walk(p, followlinks=False):
+                dirs[:] = sorted(d for d in dirs if d != ".ipynb_checkpoints" and not d.startswith("."))
+                base = Path(root)
+                for d in list(dirs):
+                    if os.path.islink(base / d):
+                        refused.append((base / d, p, _kind_of(base / d)))
+                        dirs.remove(d)
+                for name in sorted(files):
+                    q = base / name
+                    if name.startswith("."):
+                        continue
+                    why = _kind_of(q)
+                    if why:
+                        refused.append((q, p, why))
+                    elif q.suffix == ".ipynb":
+                        found.append((q, p))
+                    else:
+                        ignored.append(q)
         elif p.is_file():
             (found.append((p, None)) if p.suffix == ".ipynb" else ignored.append(p))
         else:
             raise FileNotFoundError(f"submission {s!r} does not exist; pass notebook files or folders of them")
+    found.sort()
+    return found, ignored, refused
+
+
+def expand(submissions) -> tuple[list[tuple[Path, Path | None]], list[Path]]:
+    """([(notebook, the folder it was found under or None)], [non-notebook files ignored])."""
+    found, ignored, _ = scan(submissions)
     return found, ignored
+
+
+def read_submission(path: Path, limit: int = MAX_NOTEBOOK_BYTES) -> bytes:
+    """At most ``limit`` + 1 bytes of a regular file, never following a link, never blocking on a FIFO."""
+    fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise OSError(f"{path} is not a regular file")
+        chunks, size = [], 0
+        while size <= limit:
+            chunk = os.read(fd, min(1 << 20, limit + 1 - size))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+        return b"".join(chunks)
+    finally:
+        os.close(fd)
 
 
 # -- one submission -----------------------------------------------------------------------------
@@ -283,15 +355,14 @@ class Execution:
 
 
 def execute(request: dict, notebook: bytes | None, workroot: Path, limits: sandbox.Limits, mode: str,
-            budgets: dict[str, int]) -> Execution:
+            budgets: dict[str, int], cpus: tuple[int, ...] | None = None) -> Execution:
     """Run ``runner`` on ``request`` (and the notebook's bytes) in a fresh private folder.
 
-    The folder holds the submission alone; judge-side modules are hidden (bwrap); the folder
-    is deleted afterwards. Used for submissions and for the answer banks (``bank.py``).
+    The folder holds the submission alone, size-limited (``sandbox.workdir``); judge-side
+    modules are hidden (bwrap); ``cpus`` is a CPU slot the run has to itself; the folder is
+    deleted afterwards. Used for submissions and for the answer banks (``bank.py``).
     """
-    work = Path(tempfile.mkdtemp(prefix="sub-", dir=workroot))
-    try:
-        os.chmod(work, 0o700)
+    with sandbox.workdir(workroot, limits) as work:
         if notebook is not None:
             (work / runner.NOTEBOOK).write_bytes(notebook)
         (work / "tmp").mkdir()
@@ -300,7 +371,8 @@ def execute(request: dict, notebook: bytes | None, workroot: Path, limits: sandb
         (work / runner.REQUEST).write_text(json.dumps(request))
         hide = sandbox.hidden_files(checks_mod.judge_side_modules()) if mode == "bwrap" else []
         outcome = sandbox.run([sys.executable, "-m", "robocourse.grading.runner",
-                               sandbox.SANDBOX_ROOT if mode == "bwrap" else str(work)], work, limits, mode, hide=hide)
+                               sandbox.SANDBOX_ROOT if mode == "bwrap" else str(work)], work, limits, mode, hide=hide,
+                              cpus=cpus)
         records = _read_probes(work / runner.PROBES, budgets)
         text, _ = sandbox.read_bounded(work / runner.STATUS, 1_000_000)
         try:
@@ -309,8 +381,6 @@ def execute(request: dict, notebook: bytes | None, workroot: Path, limits: sandb
         except ValueError:
             status = {}
         return Execution(outcome, records, status)
-    finally:
-        shutil.rmtree(work, ignore_errors=True)
 
 
 def probe_request(chk: checks_mod.Check, inputs, name: str | None = None) -> dict:
@@ -332,9 +402,15 @@ class Probed:
 
 
 def probe_submission(sub: Submission, assignment: Assignment | None, *, limits: sandbox.Limits,
-                     cell_timeout: float, mode: str, workroot: Path, salt: str = "") -> Probed:
+                     cell_timeout: float, mode: str, workroot: Path, salt: str = "",
+                     cpus: tuple[int, ...] | None = None) -> Probed:
     """Run one submission in its sandbox and gather its probe records (no verdict yet)."""
     g = Grade(sub.student, sub.path, assignment.name if assignment else "?", notes=list(sub.notes))
+    if sub.refused and assignment is not None:
+        g.status = f"refused: {sub.refused}"
+        registry = checks_mod.discover()
+        chks = [registry[n] for n in assignment.checks]
+        return Probed(g, chks, {c.name: None for c in chks}, {}, {}, {})
     if assignment is None:
         g.status = ("cannot tell which assignment this is: its file name contains no notebook name from "
                     "solutions/; rename it or pass --assignment NAME")
@@ -343,7 +419,7 @@ def probe_submission(sub: Submission, assignment: Assignment | None, *, limits: 
     chks = [registry[n] for n in assignment.checks]
     start = time.monotonic()
     try:
-        data = sub.path.read_bytes()[:MAX_NOTEBOOK_BYTES + 1]
+        data = read_submission(sub.path)
     except OSError as exc:
         data, g.status = b"", f"cannot read the submission: {exc}"
     if len(data) > MAX_NOTEBOOK_BYTES:
@@ -356,7 +432,7 @@ def probe_submission(sub: Submission, assignment: Assignment | None, *, limits: 
     if not g.status:
         request = {"cell_timeout": min(cell_timeout, limits.time_s),
                    "checks": [probe_request(c, inputs[c.name]) for c in chks]}
-        run = execute(request, data, workroot, limits, mode, {c.name: c.max_bytes for c in chks})
+        run = execute(request, data, workroot, limits, mode, {c.name: c.max_bytes for c in chks}, cpus=cpus)
         outcome, status, records = run.outcome, run.status, run.records
         g.sandbox = outcome.sandbox
         if outcome.stopped == "time":
@@ -365,6 +441,9 @@ def probe_submission(sub: Submission, assignment: Assignment | None, *, limits: 
             g.status = f"stopped: used more than the {limits.memory_mb} MB memory limit"
         elif outcome.stopped == "processes":
             g.status = f"stopped: started more than {limits.max_processes} processes"
+        elif outcome.stopped == "disk":
+            g.status = (f"its folder was full: it wrote more than the {limits.work_mb} MB its folder and /tmp may hold, "
+                        "so the grader could not keep what the checks after that point gathered")
         elif isinstance(status.get("reason"), str) and status["reason"]:
             g.status = status["reason"][:500]
         elif not status.get("finished"):
@@ -374,6 +453,8 @@ def probe_submission(sub: Submission, assignment: Assignment | None, *, limits: 
                 g.errors.append("log: " + outcome.log.strip()[-300:])
         if outcome.leftover:
             g.notes.append(f"{outcome.leftover} process(es) survived the kill")
+        g.resources = outcome.resources
+        g.cpus = list(outcome.cpus) if outcome.cpus else []
         if isinstance(status.get("output_chars"), int) and status["output_chars"] > limits.output_bytes:
             g.notes.append(f"printed {status['output_chars']} characters (not kept)")
         errs = status.get("errors", [])
@@ -429,26 +510,62 @@ def journal_key(sub: Submission, assignment: Assignment | None, data: bytes) -> 
 
 
 class Journal:
-    """Append-only JSON lines, one per finished submission, fsync'ed (nothing lost on a kill)."""
+    """Append-only JSON lines, one per finished submission, fsync'ed (nothing lost on a kill).
+
+    Each line carries the options it was graded with (limits, sandbox, seed salt, a digest of
+    the checks' code): a rerun reuses a row only when they are the same, and says so.
+    """
 
     def __init__(self, path: Path):
         self.path = path
         self.lock = threading.Lock()
-        self.done: dict[str, dict] = {}
+        self.done: dict[str, tuple[dict, dict]] = {}
         if path.exists():
             for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
                 try:
                     entry = json.loads(line)
-                    self.done[entry["key"]] = entry["grade"]
+                    self.done[entry["key"]] = (entry.get("options") or {}, entry["grade"])
                 except (ValueError, KeyError, TypeError):
                     continue  # the half line a killed grader left
 
-    def append(self, key: str, grade: Grade) -> None:
-        line = json.dumps({"key": key, "grade": grade.to_json(), "time": time.time()}) + "\n"
+    def append(self, key: str, grade: Grade, options: dict | None = None) -> None:
+        line = json.dumps({"key": key, "options": options or {}, "grade": grade.to_json(), "time": time.time()}) + "\n"
         with self.lock, open(self.path, "a", encoding="utf-8") as fh:
             fh.write(line)
             fh.flush()
             os.fsync(fh.fileno())
+
+
+def checks_digest(assignment: Assignment | None) -> str:
+    """A digest of the code that grades ``assignment``: its checks' judge and probe modules (a
+    changed check re-grades a journaled row)."""
+    if assignment is None:
+        return ""
+    registry = checks_mod.discover()
+    h = hashlib.sha256()
+    files = set()
+    for name in assignment.checks:
+        chk = registry.get(name)
+        if chk is None:
+            continue
+        for fn in [chk.probe, chk.inputs] + [st.judge for st in chk.subtests]:
+            try:
+                files.add(inspect.getsourcefile(fn) or "")
+            except TypeError:
+                continue
+        h.update(name.encode())
+    for f in sorted(x for x in files if x):
+        try:
+            h.update(Path(f).read_bytes())
+        except OSError:
+            h.update(f.encode())
+    return h.hexdigest()[:16]
+
+
+def _changed(old: dict, new: dict) -> list[str]:
+    if not old:
+        return ["the options were not recorded (an older journal)"]
+    return [f"{k} {old.get(k)!r} -> {new[k]!r}" for k in sorted(new) if old.get(k) != new[k]]
 
 
 def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: float = 300.0,
@@ -457,7 +574,8 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
           feedback_dir: str | os.PathLike | None = None, progress=None, sandbox_mode: str = "auto",
           force: bool = False, due: dt.datetime | None = None, late_penalty: float = 0.0,
           overrides: str | os.PathLike | None = None, canvas: str | os.PathLike | None = None,
-          gradescope: str | os.PathLike | None = None, resume: bool = True, salt: str = "") -> GradeList:
+          gradescope: str | os.PathLike | None = None, resume: bool = True, salt: str = "", work_mb: int = 1024,
+          shm_mb: int = 256) -> GradeList:
     """Grade every submission; write the CSV, exports and feedback if asked; return the grades."""
     from . import report
 
@@ -465,15 +583,15 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
         raise ValueError(f"-j must be at least 1, got {jobs}")
     if not 0 <= late_penalty <= 100:
         raise ValueError(f"--late-penalty is a percentage per started day in 0..100, got {late_penalty}")
-    limits = sandbox.Limits(time_limit, memory_mb, max_processes)
+    limits = sandbox.Limits(time_limit, memory_mb, max_processes, work_mb=work_mb, shm_mb=shm_mb)
     mode = sandbox.choose_mode(sandbox_mode)
     assignments = load_assignments(Path(solutions_dir), extra_dirs)
     if not assignments:
         raise FileNotFoundError(f"no solution notebooks in {solutions_dir!r}; pass --solutions DIR")
     if assignment and assignment not in assignments:
         raise ValueError(f"--assignment {assignment!r} is not one of {sorted(assignments)}")
-    found, ignored = expand(submissions)
-    if not found:
+    found, ignored, refused = scan(submissions)
+    if not found and not refused:
         raise FileNotFoundError(f"no notebooks (*.ipynb) in {', '.join(map(str, submissions)) or 'the arguments'}"
                                 + (f" ({len(ignored)} other file(s) ignored)" if ignored else "")
                                 + "; pass the folder holding the students' notebooks")
@@ -482,6 +600,13 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
     for path, given in found:
         student, name, notes = identify(path, given, assignments, assignment)
         subs.append(Submission(path, student, name, notes))
+    refused_other = []
+    for path, given, why in refused:
+        if path.suffix == ".ipynb":  # a notebook that is not a file: a row with the reason, never read
+            student, name, notes = identify(path, given, assignments, assignment)
+            subs.append(Submission(path, student, name, notes, refused=why))
+        else:
+            refused_other.append(f"{path}: {why}")
     seen: dict[tuple, list[Submission]] = {}
     for s in subs:
         seen.setdefault((s.student, s.assignment), []).append(s)
@@ -493,27 +618,49 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
     unknown = [s.path for s in subs if s.assignment is None]
 
     journal = Journal(Path(f"{out}.journal.jsonl")) if out else None
+    options = {"time_limit": limits.time_s, "memory_mb": limits.memory_mb, "max_processes": limits.max_processes,
+               "cell_timeout": cell_timeout, "work_mb": limits.work_mb, "shm_mb": limits.shm_mb, "sandbox": mode,
+               "salt": salt}
+    digests = {name: checks_digest(a) for name, a in assignments.items()}
+    regraded: list[tuple[str, list[str]]] = []
     workroot = Path(tempfile.mkdtemp(prefix="robocourse-grade-"))
     os.chmod(workroot, 0o700)
     if any(s.assignment for s in subs):
         warm_font_cache(workroot)
     grades: list[Grade | None] = [None] * len(subs)
 
+    gate = resources.CpuGate()
+    registry = checks_mod.discover()
+
     def one(i: int):
         """In a worker thread: a journaled Grade, or the Probed submission to judge."""
         s = subs[i]
         a = assignments.get(s.assignment) if s.assignment else None
         try:
-            data = s.path.read_bytes()
+            data = read_submission(s.path)
         except OSError:
             data = b""
         key = journal_key(s, a, data)
+        opts = {**options, "checks": digests.get(s.assignment, "")}
         if journal and resume and key in journal.done:
-            g = Grade.from_json(journal.done[key])
-            g.resumed = True
-            return key, g
-        return key, probe_submission(s, a, limits=limits, cell_timeout=cell_timeout, mode=mode, workroot=workroot,
-                                     salt=salt)
+            was, saved = journal.done[key]
+            changed = _changed(was, opts)
+            if not changed:
+                g = Grade.from_json(saved)
+                g.resumed = True
+                return key, g
+            regraded.append((str(s.path), changed))
+        timing = a is not None and any(registry[n].timing for n in a.checks if n in registry)
+        with gate.hold(exclusive=timing) as cpus:  # a timing check runs with no other submission beside it
+            busy = resources.machine_busy() if timing else ""
+            probed = probe_submission(s, a, limits=limits, cell_timeout=cell_timeout, mode=mode, workroot=workroot,
+                                      salt=salt, cpus=cpus)
+            busy = busy or (resources.machine_busy() if timing else "")
+        if busy:
+            probed.grade.notes.append(f"the machine was busy with other programs ({busy}) while your timing checks ran "
+                                      "(no other submission ran beside them): a failed timing sub-test may be the "
+                                      "machine's, not yours; ask for a regrade")
+        return key, probed
 
     def failed(i: int, exc: BaseException) -> Grade:
         # the grader's own failure: reported, never blamed on the student, not journaled (a re-run grades it)
@@ -534,7 +681,7 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
                     # SIGALRM where that is the main thread)
                     g = got if isinstance(got, Grade) else judge_submission(got)
                     if journal and not g.resumed:
-                        journal.append(key, g)
+                        journal.append(key, g, {**options, "checks": digests.get(g.assignment, "")})
                 except Exception as exc:
                     g = failed(i, exc)
                 grades[i] = g
@@ -546,9 +693,11 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
     if due is not None:
         report.apply_late(result, due, late_penalty)
     report.apply_overrides(result, override_rows)
-    result.ignored, result.unknown = ignored, unknown
-    result.summary = report.summary(result, ignored=ignored, unknown=unknown, seconds=time.monotonic() - start,
-                                    mode=mode, jobs=jobs, due=due, late_penalty=late_penalty)
+    result.ignored, result.unknown, result.refused, result.regraded = ignored, unknown, refused_other, regraded
+    result.summary = report.summary(result, ignored=ignored, unknown=unknown, refused=refused_other, regraded=regraded,
+                                    seconds=time.monotonic() - start,
+                                    mode=mode, jobs=jobs, due=due, late_penalty=late_penalty,
+                                    limits_line=_limits_line(limits))
     if out:
         write_csv(result, out, force=force)
         Path(f"{out}.summary.txt").write_text(result.summary, encoding="utf-8")
@@ -561,6 +710,18 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
     return result
 
 
+def _limits_line(limits: sandbox.Limits) -> str:
+    how = {"cgroup-v1": "cgroup v1 per submission (shared memory and memfd counted)",
+           "cgroup-v2-delegated": "a delegated cgroup v2 per submission (systemd-run --user --scope)",
+           "polling": "polled resident memory and process count (no cgroup could be created: shared memory outside "
+                      "the sandbox is not counted)"}[resources.mode()]
+    cpu = ("a submission with a timing check ran alone with every CPU; the others side by side, one CPU's worth each"
+           if resources.mode() != "polling" else
+           "a submission with a timing check ran alone; the others side by side (no CPU cap without a cgroup)")
+    return (f"limits per submission: {limits.memory_mb} MB, {limits.max_processes} processes, a {limits.work_mb} MB "
+            f"folder, a {limits.shm_mb} MB /dev/shm, {limits.time_s:g} s; enforced by {how}; {cpu}")
+
+
 def _rows(path) -> int:
     try:
         with open(path, newline="", encoding="utf-8") as fh:
@@ -570,7 +731,12 @@ def _rows(path) -> int:
 
 
 def write_csv(grades: list[Grade], out, *, force: bool = False) -> None:
-    """One row per submission; refuses to replace a CSV that has more rows unless ``force``."""
+    """One row per submission; refuses to replace a CSV that has more rows unless ``force``.
+
+    Every text cell a submission could have written (its folder name, its status) goes through
+    ``report.for_csv``: no formula, no escape sequence reaches the instructor's spreadsheet."""
+    from .report import for_csv
+
     existing = _rows(out) if Path(out).exists() else 0
     if existing > len(grades) and not force:
         raise ValueError(f"{out} already holds {existing} graded row(s) and this run has only {len(grades)}; "
@@ -588,10 +754,10 @@ def write_csv(grades: list[Grade], out, *, force: bool = False) -> None:
         for g in sorted(grades, key=lambda g: (g.student, g.assignment, str(g.submission))):
             status = "; ".join([g.status] * bool(g.status) + g.notes
                                + [f"CHECK ERROR (instructor): {e}" for e in g.instructor])
-            w.writerow([g.student, g.assignment, str(g.submission),
+            w.writerow([for_csv(g.student), for_csv(g.assignment), for_csv(g.submission),
                         *[f"{g.results[c]['points']:g}" if c in g.results else "" for c in columns],
                         f"{g.points:g}", f"{g.max_points:g}", g.late_days,
-                        {"bwrap": "yes", "process": "NO (not sandboxed)", "": ""}[g.sandbox], status])
+                        {"bwrap": "yes", "process": "NO (not sandboxed)", "": ""}[g.sandbox], for_csv(status)])
     os.replace(tmp, out)
 
 

@@ -12,6 +12,7 @@ import csv
 import datetime as dt
 import html
 import math
+import re
 import statistics
 from collections import Counter
 from pathlib import Path
@@ -46,7 +47,7 @@ def feedback_text(g) -> str:
         lines += check_lines(name, r, _where(r))
     if g.errors:
         lines += ["", "Errors while running your notebook:"] + [f"  {e}" for e in g.errors]
-    return "\n".join(lines) + "\n"
+    return for_terminal("\n".join(lines) + "\n")
 
 
 def feedback_html(g) -> str:
@@ -95,10 +96,23 @@ def write_feedback(grades, directory) -> list[Path]:
     return written
 
 
-def summary(grades, *, ignored=(), unknown=(), seconds=0.0, mode="", jobs=1, due=None, late_penalty=0.0) -> str:
-    """The run summary table an instructor reads first."""
+def _listed(title: str, items: list[str], most: int = 200) -> list[str]:
+    """A titled list, one item per line; past ``most`` the rest is counted, never dropped unsaid."""
+    if not items:
+        return []
+    out = ["", f"{title} ({len(items)}):"] + [f"  {x}" for x in items[:most]]
+    if len(items) > most:
+        out.append(f"  ... and {len(items) - most} more")
+    return out
+
+
+def summary(grades, *, ignored=(), unknown=(), refused=(), regraded=(), seconds=0.0, mode="", jobs=1, due=None,
+            late_penalty=0.0, limits_line: str = "") -> str:
+    """The run summary table an instructor reads first (terminal-safe: a submission's text is escaped)."""
     lines = [f"Graded {len(grades)} submission(s) of {len({g.student for g in grades})} student(s) in {seconds:.1f} s "
              f"with -j {jobs}; sandbox: {mode}" + ("" if mode == "bwrap" else "  *** NOT SANDBOXED ***")]
+    if limits_line:
+        lines.append(limits_line)
     by_assignment: dict[str, list] = {}
     for g in grades:
         by_assignment.setdefault(g.assignment, []).append(g)
@@ -112,37 +126,53 @@ def summary(grades, *, ignored=(), unknown=(), seconds=0.0, mode="", jobs=1, due
                      f"{sum(p == 0 for p in pts):>6}{statistics.median(pts):>9g}{top:>6g}"
                      f"{statistics.median(g.seconds for g in gs):>8.1f}"
                      f"{statistics.median(getattr(g, 'judge_seconds', 0.0) for g in gs):>9.2f}")
+    judge_total = sum(getattr(g, "judge_seconds", 0.0) for g in grades)
+    lines.append(f"judging took {judge_total:.2f} s in all (the grader's own time, outside the sandboxes)")
     reasons = Counter(REASONS.get(r.get("reason", ""), r.get("reason", "")) for g in grades
                       for r in g.results.values() if not r["passed"])
     if reasons:
         lines += ["", "failed checks by reason: " + ", ".join(f"{k} {v}" for k, v in reasons.most_common())]
-    stopped = Counter(g.status.split(":")[0][:60] for g in grades if g.status)
-    if stopped:
-        lines.append("runs with a note: " + ", ".join(f"{k} ({v})" for k, v in stopped.most_common()))
+    statuses = Counter(g.status for g in grades if g.status)
+    lines += _listed("runs with a note, each distinct note once", [f"{v} x {k}" for k, v in statuses.most_common()])
     resumed = sum(g.resumed for g in grades)
     if resumed:
-        lines.append(f"resumed from the journal (not re-run): {resumed}")
+        lines += ["", f"reused from the journal, not run again (same notebook, same options, same checks; --restart "
+                      f"grades them again): {resumed}"]
+    lines += _listed("graded again although journaled, because what grades them changed",
+                     [f"{path}: {'; '.join(changed)}" for path, changed in regraded])
     unsandboxed = [g for g in grades if g.sandbox == "process"]
     if unsandboxed:
         lines.append(f"*** NOT SANDBOXED ({len(unsandboxed)}): " + ", ".join(
-            f"{g.student}/{g.assignment}" for g in unsandboxed[:20]) + " (install bubblewrap) ***")
-    check_errors = [e for g in grades for e in g.instructor]
-    if check_errors:
-        lines.append(f"CHECK ERRORS ({len(check_errors)}; the check's fault, not the students'): "
-                     + "; ".join(sorted(set(check_errors))[:5]))
-    notes = [f"{g.student}: {n}" for g in grades for n in g.notes]
-    if notes:
-        lines += ["", "identity and run notes:"] + [f"  {n}" for n in notes[:50]]
-    if unknown:
-        lines += ["", f"unknown assignment ({len(unknown)}): " + ", ".join(map(str, unknown[:20]))]
-    if ignored:
-        lines += ["", f"not notebooks, ignored ({len(ignored)}): " + ", ".join(map(str, ignored[:20]))]
+            f"{g.student}/{g.assignment}" for g in unsandboxed) + " (install bubblewrap) ***")
+    check_errors = sorted({e for g in grades for e in g.instructor})
+    lines += _listed("CHECK ERRORS (the check's fault, not the students')", check_errors)
+    lines += _listed("identity and run notes", [f"{g.student}: {n}" for g in grades for n in g.notes])
+    lines += _listed("refused, never read", list(refused))
+    lines += _listed("unknown assignment", [str(u) for u in unknown])
+    lines += _listed("not notebooks, ignored", [str(i) for i in ignored])
     if due is not None:
         late = [g for g in grades if g.late_days]
         lines += ["", f"late policy: due {due.isoformat()}; file modification time decides; "
                       f"{late_penalty:g} % of the points removed per started day late (at most 100 %); "
                       f"{len(late)} late submission(s)"]
-    return "\n".join(lines) + "\n"
+    return for_terminal("\n".join(lines) + "\n")
+
+
+_UNSAFE = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
+
+
+def for_terminal(text: str) -> str:
+    """``text`` with control characters (escape sequences, carriage returns, bidi overrides) shown
+    as ``\\x1b``-style escapes: a submission's string cannot move the cursor or recolour a terminal."""
+    return _UNSAFE.sub(lambda m: f"\\x{ord(m.group()):02x}" if ord(m.group()) < 0x100 else f"\\u{ord(m.group()):04x}",
+                       str(text))
+
+
+def for_csv(text) -> str:
+    """A CSV cell that a spreadsheet shows as text: control characters escaped, newlines flattened,
+    and a leading = + - @ (a formula) neutralised with a quote, as OWASP recommends."""
+    cell = for_terminal(str(text).replace("\r\n", " ").replace("\n", " ").replace("\t", " "))
+    return "'" + cell if cell[:1] in ("=", "+", "-", "@") else cell
 
 
 def apply_late(grades, due: dt.datetime, penalty_percent: float) -> None:
@@ -219,7 +249,7 @@ def write_canvas(grades, path) -> None:
         w.writerow(["Student", "ID", "SIS User ID", "SIS Login ID", "Section", *names])
         w.writerow(["    Points Possible", "", "", "", "", *[f"{maxes[a]:g}" for a in names]])
         for student in sorted(by):
-            w.writerow([student, "", "", student, "", *[f"{by[student][a].points:g}" if a in by[student] else ""
+            w.writerow([for_csv(student), "", "", for_csv(student), "", *[f"{by[student][a].points:g}" if a in by[student] else ""
                                                         for a in names]])
 
 
@@ -235,4 +265,4 @@ def write_gradescope(grades, path) -> None:
             for a in names:
                 g = by[student].get(a)
                 cells += [f"{g.points:g}", f"{g.max_points:g}"] if g else ["", ""]
-            w.writerow([student, student, "", *cells])
+            w.writerow([for_csv(student), for_csv(student), "", *cells])

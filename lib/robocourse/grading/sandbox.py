@@ -13,11 +13,13 @@ container, without Docker. With ``bwrap`` (Debian package ``bubblewrap``) each r
 - a clean environment built from an allow-list (never the grader's secrets).
 
 Limits enforced by the grader, whatever the code does: wall time (the whole namespace is
-killed, never a wait on a pipe), memory as the sum of the resident memory of every process in
-the sandbox (polled every 0.1 s) plus RLIMIT_AS per process as a hard backstop, a process count
-(polled), and output bytes (stdout/stderr go to a file capped by RLIMIT_FSIZE and read back
-through a bounded reader). cgroup v2 would make memory and process limits exact; this machine
-has cgroup v1 read-only, so polling is used and a fork bomb can overshoot for up to one poll.
+killed, never a wait on a pipe); memory, processes and CPU per submission by
+:mod:`resources` (a cgroup per submission where the grader may create one: shared memory and
+memfd count; a CPU slot of its own when no more submissions run at once than there are CPUs;
+otherwise the resident memory and process count are polled every 0.1 s, with RLIMIT_AS per
+process as a hard backstop); a private, size-limited work folder (a tmpfs where the grader is
+root, else its size polled) and a private /dev/shm tmpfs; output bytes (stdout/stderr go to a
+file capped by RLIMIT_FSIZE and read back through a bounded reader).
 
 Without bwrap (``mode="process"``) the fallback is a fresh session/process group killed whole,
 the same rlimits, a private copy and the clean environment, but the code can see the file
@@ -26,12 +28,14 @@ system and other processes: the grader marks such rows "NOT SANDBOXED".
 
 from __future__ import annotations
 
+import contextlib
 import os
 import resource
 import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 import uuid
 from dataclasses import dataclass
@@ -39,6 +43,7 @@ from pathlib import Path
 
 import psutil
 
+from . import resources
 from .checks import GRADING_ENV
 
 #: Environment variables a submission may see (everything else, e.g. tokens, is dropped).
@@ -56,6 +61,9 @@ class Limits:
     max_processes: int = 64
     output_bytes: int = 2_000_000  # bytes of stdout/stderr kept for the instructor's log
     file_bytes: int = 64 * 1024 * 1024  # the largest file the submission may write
+    work_mb: int = 1024  # the submission's work folder (its /submission and /tmp), in all
+    shm_mb: int = 256  # its private /dev/shm
+    threads_per_process: int = 16  # tasks (threads) the pids cgroup allows per allowed process
 
     def __post_init__(self):
         if not self.time_s > 0:
@@ -64,6 +72,9 @@ class Limits:
             raise ValueError(f"memory limit must be >= 256 MB, got {self.memory_mb!r}; e.g. --memory 4096")
         if self.max_processes < 4:
             raise ValueError(f"process limit must be >= 4, got {self.max_processes!r}")
+        if self.work_mb < 64 or self.shm_mb < 16:
+            raise ValueError(f"the work folder needs >= 64 MB and /dev/shm >= 16 MB, got {self.work_mb!r} and "
+                             f"{self.shm_mb!r}")
 
 
 @dataclass
@@ -77,6 +88,8 @@ class Outcome:
     log: str  # the first output_bytes of stdout+stderr (bounded)
     log_truncated: bool
     leftover: int  # processes still alive after the kill (should be 0)
+    resources: str = ""  # how the limits were enforced (resources.Box.describe)
+    cpus: tuple[int, ...] | None = None  # the CPU slot the submission had to itself, if any
 
 
 def bwrap_path() -> str | None:
@@ -163,7 +176,7 @@ def hidden_files(modules) -> list[str]:
 
 
 def bwrap_command(workdir: Path, argv: list[str], env: dict, read_only: list[str] | None = None,
-                  hide: list[str] = ()) -> list[str]:
+                  hide: list[str] = (), shm_mb: int = 256) -> list[str]:
     """The bwrap argv: /usr, the Python installation and ``read_only`` (default: the venv and the
     library) read-only, ``workdir`` at /submission, and /tmp the submission's own ``tmp``.
     Each file in ``hide`` (the judge modules and their bytecode) reads as empty inside.
@@ -187,15 +200,18 @@ def bwrap_command(workdir: Path, argv: list[str], env: dict, read_only: list[str
         cmd += ["--ro-bind", p, p]
     for path in hide:
         cmd += ["--ro-bind", "/dev/null", path]
-    cmd += ["--proc", "/proc", "--dev", "/dev", "--bind", str(workdir), SANDBOX_ROOT,
+    cmd += ["--proc", "/proc", "--dev", "/dev", "--perms", "1777", "--size", str(shm_mb * 2**20), "--tmpfs", "/dev/shm",
+            "--bind", str(workdir), SANDBOX_ROOT,
             "--chdir", SANDBOX_ROOT, "--clearenv"]
     for k, v in env.items():
         cmd += ["--setenv", k, v]
     return cmd + ["--"] + argv
 
 
-def _limits(limits: Limits):
+def _limits(limits: Limits, box=None):
     def apply():
+        if box is not None:
+            box.join()
         mem = limits.memory_mb * 1024 * 1024
         resource.setrlimit(resource.RLIMIT_AS, (mem, mem))
         resource.setrlimit(resource.RLIMIT_FSIZE, (limits.file_bytes, limits.file_bytes))
@@ -242,18 +258,39 @@ def _kill(procs: list[psutil.Process]) -> None:
     psutil.wait_procs(procs, timeout=3)
 
 
-def run(argv: list[str], workdir: Path, limits: Limits, mode: str = "auto", hide: list[str] = ()) -> Outcome:
+@contextlib.contextmanager
+def workdir(parent: Path, limits: Limits):
+    """A fresh private folder for one submission, size-limited: a tmpfs of ``limits.work_mb``
+    mounted on it where the grader may mount (root); elsewhere :func:`run` polls its size."""
+    folder = Path(tempfile.mkdtemp(prefix="sub-", dir=parent))
+    mounted = resources.mount_quota(folder, limits.work_mb)
+    try:
+        os.chmod(folder, 0o700)
+        yield folder
+    finally:
+        if mounted:
+            resources.unmount(folder)
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def run(argv: list[str], workdir: Path, limits: Limits, mode: str = "auto", hide: list[str] = (),
+        cpus: tuple[int, ...] | None = None) -> Outcome:
     """Run ``argv`` (a Python command) on ``workdir`` under ``limits``; kill everything at the end.
 
     ``hide``: files that read as empty inside the sandbox (bwrap only; see :func:`hidden_files`).
+    ``cpus``: CPUs the submission has to itself (pinned by its cpuset cgroup where there is one).
+    Memory, processes and CPU are limited per submission by :mod:`resources` (cgroups where the
+    grader may create them); the work folder's size by its tmpfs or, without one, by polling.
     """
     mode = choose_mode(mode)
     marker = uuid.uuid4().hex
     (workdir / "tmp").mkdir(exist_ok=True)
     log_path = workdir.parent / f"{workdir.name}.log"
+    quota_polled = not os.path.ismount(workdir)
+    box = resources.Box(limits.memory_mb, limits.max_processes * limits.threads_per_process, cpus)
     if mode == "bwrap":
         env = clean_env(SANDBOX_ROOT, marker)
-        cmd, cwd = bwrap_command(workdir, argv, env, hide=list(hide)), "/"
+        cmd, cwd = bwrap_command(workdir, argv, env, hide=list(hide), shm_mb=limits.shm_mb), "/"
         env_outer = {"PATH": "/usr/bin:/bin"}
     else:
         env_outer = clean_env(str(workdir), marker)
@@ -263,9 +300,10 @@ def run(argv: list[str], workdir: Path, limits: Limits, mode: str = "auto", hide
     peak_procs = 0
     stopped = ""
     seen: dict[int, psutil.Process] = {}
-    with open(log_path, "wb") as log:
-        proc = subprocess.Popen(cmd, cwd=cwd, env=env_outer, stdin=subprocess.DEVNULL, stdout=log, stderr=log,
-                                start_new_session=True, preexec_fn=_limits(limits), close_fds=True)
+    with box, open(log_path, "wb") as log:
+        proc = subprocess.Popen(box.wrap(cmd), cwd=cwd, env=env_outer, stdin=subprocess.DEVNULL, stdout=log,
+                                stderr=log, start_new_session=True, preexec_fn=_limits(limits, box), close_fds=True)
+        polls = 0
         try:
             while True:
                 try:
@@ -273,6 +311,7 @@ def run(argv: list[str], workdir: Path, limits: Limits, mode: str = "auto", hide
                     break
                 except subprocess.TimeoutExpired:
                     pass
+                polls += 1
                 procs = _tree(proc.pid)
                 for p in procs:
                     seen.setdefault(p.pid, p)
@@ -284,12 +323,18 @@ def run(argv: list[str], workdir: Path, limits: Limits, mode: str = "auto", hide
                         pass
                 peak_mem = max(peak_mem, rss / 2**20)
                 peak_procs = max(peak_procs, len(procs) - (1 if mode == "bwrap" else 0))
+                used = box.usage() if box.mode != "polling" else None
                 if time.monotonic() - start > limits.time_s:
                     stopped = "time"
-                elif rss > limits.memory_mb * 2**20:
+                elif used is not None and used.oom_kills:
                     stopped = "memory"
-                elif len(procs) > limits.max_processes + 2:
+                elif used is None and rss > limits.memory_mb * 2**20:
+                    stopped = "memory"
+                elif len(procs) > limits.max_processes + 2 or (used is not None and used.refused_forks):
                     stopped = "processes"
+                elif quota_polled and polls % 10 == 0 and \
+                        resources.folder_bytes(workdir) > limits.work_mb * 2**20:
+                    stopped = "disk"
                 if stopped:
                     break
         finally:
@@ -307,12 +352,31 @@ def run(argv: list[str], workdir: Path, limits: Limits, mode: str = "auto", hide
                 proc.wait(timeout=10)
             if mode == "process":
                 _kill(_marked(marker))
+            used = box.usage()
+            if not stopped and used.oom_kills:
+                stopped = "memory"  # the kernel's OOM killer ended the run between two polls
+            if not stopped and _folder_full(workdir, limits, quota_polled):
+                stopped = "disk"
+            if used.peak_memory_mb is not None:
+                peak_mem = max(peak_mem, used.peak_memory_mb)
+            described = box.describe()
     leftover = [p for p in seen.values() if _alive(p)]
     leftover += [] if mode == "bwrap" else _marked(marker)
     text, truncated = read_bounded(log_path, limits.output_bytes)
     log_path.unlink(missing_ok=True)
     return Outcome(proc.returncode, stopped, mode, time.monotonic() - start, round(peak_mem, 1), peak_procs,
-                   text, truncated, len(leftover))
+                   text, truncated, len(leftover), described, cpus)
+
+
+def _folder_full(workdir: Path, limits: Limits, polled: bool) -> bool:
+    """The submission filled its folder (its tmpfs has under 1 MB left, or it is over the polled quota)."""
+    if polled:
+        return resources.folder_bytes(workdir) > limits.work_mb * 2**20
+    try:
+        st = os.statvfs(workdir)
+    except OSError:
+        return False
+    return st.f_bavail * st.f_frsize < 2**20
 
 
 def read_bounded(path: Path, limit: int) -> tuple[str, bool]:

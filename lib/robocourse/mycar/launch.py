@@ -1,9 +1,9 @@
-"""Start the whole car from a parameter file: the seed's "use a launch file" advice.
+"""MyCar's launch file and parameter file: the seed's "use a launch file" advice.
 
-``launch(ctx, "mycar.yaml")`` is the counterpart of ``ros2 launch mycar mycar.launch.py``: it
-reads a ROS 2 parameter file (``node: ros__parameters: {...}``), creates the simulator (for
-``driver: mujoco``), the driver, the LED service and the navigation server with those
-parameters as overrides, and returns them with an executor ready to spin.
+``generate_launch_description()`` is the counterpart of ``mycar.launch.py`` (read it: it is the
+one the chapter shows); ``launch()`` runs it like ``ros2 launch mycar mycar.launch.py
+params_file:=... use_sim:=true`` and returns the started nodes as a :class:`MyCar`. The
+parameters live in ``mycar.yaml`` (ROS 2 layout: node name -> ``ros__parameters``).
 """
 
 from __future__ import annotations
@@ -11,14 +11,43 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from robocourse.bus import Context, MultiThreadedExecutor, Parameter, SingleThreadedExecutor
+from robocourse.bus import Context, MultiThreadedExecutor, SingleThreadedExecutor
+from robocourse.bus.arguments import param_file_entries
+from robocourse.launch import (
+    DeclareLaunchArgument,
+    IfCondition,
+    LaunchConfiguration,
+    LaunchDescription,
+    LaunchedSystem,
+    Node,
+    UnlessCondition,
+)
+from robocourse.launch import launch as ros2_launch
 
-from .drivers import MujocoMotorDriver, SimulatedMotorDriver
-from .kinematics import DiffDriveGeometry
 from .navigation import NavigationActionServer
 from .nodes import DriverNode, LedServiceServer, SimulatorNode
 
 DEFAULT_CONFIG = Path(__file__).with_name("mycar.yaml")
+
+
+def generate_launch_description() -> LaunchDescription:
+    """The car: simulator (if use_sim), driver, LED service, navigation server, one parameter file."""
+    params = LaunchConfiguration("params_file")
+    use_sim = LaunchConfiguration("use_sim")
+    return LaunchDescription([
+        DeclareLaunchArgument("params_file", default_value=str(DEFAULT_CONFIG),
+                              description="ROS 2 parameter file for every node"),
+        DeclareLaunchArgument("use_sim", default_value="true", choices=["true", "false"],
+                              description="true: a MuJoCo car; false: a PWM-logging motor board, no physics"),
+        Node(package="mycar", executable="simulator", name="mycar_sim", parameters=[params],
+             condition=IfCondition(use_sim)),
+        Node(package="mycar", executable="driver_node", name="driver_node", parameters=[params, {"driver": "mujoco"}],
+             condition=IfCondition(use_sim)),
+        Node(package="mycar", executable="driver_node", name="driver_node", parameters=[params, {"driver": "simulated"}],
+             condition=UnlessCondition(use_sim)),
+        Node(package="mycar", executable="led_service", name="led_service_server", parameters=[params]),
+        Node(package="mycar", executable="navigation_server", name="navigation_server", parameters=[params]),
+    ])
 
 
 def load_parameters(config) -> dict[str, dict]:
@@ -32,12 +61,7 @@ def load_parameters(config) -> dict[str, dict]:
         data = yaml.safe_load(path.read_text()) or {}
     else:
         data = dict(config or {})
-    out = {}
-    for node, section in data.items():
-        if not isinstance(section, dict) or "ros__parameters" not in section:
-            raise ValueError(f"parameter file entry {node!r} must hold 'ros__parameters:' (ROS 2 layout)")
-        out[node] = dict(section["ros__parameters"] or {})
-    return out
+    return {pattern.lstrip("/"): values for pattern, values in param_file_entries(data)}
 
 
 @dataclass
@@ -48,44 +72,52 @@ class MyCar:
     navigation: NavigationActionServer
     simulator: SimulatorNode | None
     executor: SingleThreadedExecutor
+    system: LaunchedSystem | None = None
 
     @property
     def nodes(self):
         return [n for n in (self.simulator, self.driver, self.led, self.navigation) if n is not None]
 
+    @classmethod
+    def from_system(cls, system: LaunchedSystem) -> MyCar:
+        """The car's nodes out of a launched description (any launch file that starts them)."""
+        def one(kind, required=True):
+            found = [n for n in system.nodes if isinstance(n, kind)]
+            if len(found) > 1 or (required and not found):
+                raise ValueError(f"the launch started {len(found)} {kind.__name__} nodes; a MyCar has exactly one"
+                                 + ("" if required else " or none"))
+            return found[0] if found else None
+
+        return cls(system.context, one(DriverNode), one(LedServiceServer), one(NavigationActionServer),
+                   one(SimulatorNode, required=False), system.executor, system)
+
 
 def launch(context: Context | None = None, config=DEFAULT_CONFIG, overrides: dict | None = None,
-           multithreaded: bool = False) -> MyCar:
-    """Create the car's nodes on ``context`` (default: a new simulated-time context)."""
+           multithreaded: bool = False, use_sim: bool = True) -> MyCar:
+    """Launch the car on ``context`` (default: a new simulated-time context).
+
+    ``config``: a parameter file (path) or its loaded dict; ``overrides``: {node: {param: value}}
+    applied after the file (a dict in the Node action's ``parameters``, as a launch file would).
+    """
     ctx = context or Context(use_sim_time=True)
-    params = load_parameters(config)
-    for node, values in (overrides or {}).items():
-        params.setdefault(node, {}).update(values)
-    drv = params.get("driver_node", {})
-    kind = drv.get("driver", "simulated")
-    simulator = None
-    if kind == "mujoco":
-        from robocourse.sim.car import MujocoCar
+    tmp = None
+    if not isinstance(config, (str, Path)):   # a loaded dict: launch reads files, so write it out
+        import json
+        import tempfile
 
-        geometry = DiffDriveGeometry(drv.get("wheel_base", 0.15), drv.get("wheel_radius", 0.0325),
-                                     drv.get("max_linear_speed", 0.5))
-        car = MujocoCar(geometry)
-        simulator = SimulatorNode(car, context=ctx)
-        driver = MujocoMotorDriver(car)
-    elif kind == "simulated":
-        driver = SimulatedMotorDriver()
-    else:
-        raise ValueError(f"driver_node.driver is {kind!r}: use 'simulated' or 'mujoco'")
-
-    def overrides_for(name):
-        return [Parameter(k, value=float(v) if isinstance(v, int) and not isinstance(v, bool) else v)
-                for k, v in params.get(name, {}).items()]
-
-    driver_node = DriverNode(driver, context=ctx, parameter_overrides=overrides_for("driver_node"))
-    led = LedServiceServer(context=ctx)
-    nav = NavigationActionServer(context=ctx, parameter_overrides=overrides_for("navigation_server"))
+        tmp = tempfile.NamedTemporaryFile("w", suffix=".yaml", prefix="mycar_", delete=False)
+        json.dump(config, tmp)
+        tmp.close()
+        config = tmp.name
+    description = generate_launch_description()
+    for action in description.entities:
+        if isinstance(action, Node) and action.name in (overrides or {}):
+            action.parameters.append(dict(overrides[action.name]))
     ex = MultiThreadedExecutor(context=ctx) if multithreaded else SingleThreadedExecutor(context=ctx)
-    car = MyCar(ctx, driver_node, led, nav, simulator, ex)
-    for node in car.nodes:
-        ex.add_node(node)
-    return car
+    try:
+        system = ros2_launch(description, context=ctx, executor=ex, launch_arguments={
+            "params_file": str(config), "use_sim": "true" if use_sim else "false"})
+    finally:
+        if tmp is not None:
+            Path(tmp.name).unlink(missing_ok=True)
+    return MyCar.from_system(system)

@@ -6,12 +6,14 @@ turn to the target heading), publishes ``percent_complete`` feedback and ``await
 step, so a single-threaded executor (and simulated time) keeps running the driver, the
 watchdog and cancel requests meanwhile. Goals with NaN/inf, a zero quaternion or farther than
 ``max_distance`` are rejected (the reason is logged and kept in ``rejections``: ROS goal
-responses carry no text); cancel stops the car and returns ``canceled``; ``timeout`` aborts.
+responses carry no text); cancel stops the car and returns ``canceled``; the goal is aborted
+(the car stopped, the reason logged and in the result's message) after ``timeout``, or when
+odometry has shown no motion for ``stall_timeout`` (a stuck car, a driver that died).
 
 Frames, as Nav2 treats them: the goal's ``header.frame_id`` says which frame the pose is in.
 A goal in ``odom`` is driven as is; a goal in another frame is transformed into ``odom`` with
-the transforms heard on ``/tf`` and ``/tf_static`` (a chain of any length, 2D: x, y, yaw), and
-rejected with the reason when no chain exists (an empty frame_id is rejected too: tf2 refuses
+the latest transforms heard on ``/tf`` and ``/tf_static`` (:mod:`robocourse.mycar.tf2`, a
+planar tf2 buffer), and rejected with the reason when no chain exists (an empty frame_id is rejected too: tf2 refuses
 empty frame ids). Success is judged by odometry, the only pose the robot has; the result also
 reports how far the true pose (``/ground_truth``, the simulator's chassis pose in ``world``,
 whose origin is where odometry started) is from the goal, so odometry drift is visible.
@@ -21,21 +23,22 @@ from __future__ import annotations
 
 import math
 
-from robocourse.bus import DurabilityPolicy, Node, QoSProfile
+from robocourse.bus import Node
 from robocourse.bus.action import ActionServer, CancelResponse, GoalResponse
 from robocourse.msgs.geometry_msgs import Twist
 from robocourse.msgs.nav_msgs import Odometry
-from robocourse.msgs.tf2_msgs import TFMessage
 
 from . import kinematics as kin
 from .msgs import NavigateToPose
 from .nodes import QOS_CMD_VEL, QOS_ODOM, declare_ranged
+from .tf2 import Buffer, TransformException, TransformListener, compose
 
 _PARAMS = {
     "goal_tolerance": (0.05, 0.005, 1.0, "position tolerance [m]"),
     "yaw_tolerance": (0.1, 0.01, 1.0, "final heading tolerance [rad]"),
     "max_distance": (5.0, 0.1, 100.0, "goals farther than this from the car are rejected [m]"),
     "timeout": (30.0, 0.1, 600.0, "abort a goal after this long [s]"),
+    "stall_timeout": (3.0, 0.1, 600.0, "abort when odometry shows no motion for this long [s]"),
     "max_linear": (0.3, 0.01, 5.0, "top driving speed [m/s]"),
     "max_angular": (2.0, 0.1, 20.0, "top turning rate [rad/s]"),
     "control_rate": (20.0, 1.0, 200.0, "control steps per second [Hz]"),
@@ -43,59 +46,6 @@ _PARAMS = {
 
 
 ODOM_FRAME = "odom"
-
-
-def compose(a, b):
-    """2D transform a * b: (x, y, yaw) of frame c in frame p, from a = T_p_q and b = T_q_c."""
-    ax, ay, ayaw = a
-    bx, by, byaw = b
-    c, s = math.cos(ayaw), math.sin(ayaw)
-    return ax + c * bx - s * by, ay + s * bx + c * by, kin.wrap_angle(ayaw + byaw)
-
-
-def invert(a):
-    """The 2D transform T_q_p from a = T_p_q."""
-    x, y, yaw = a
-    c, s = math.cos(yaw), math.sin(yaw)
-    return -c * x - s * y, s * x - c * y, kin.wrap_angle(-yaw)
-
-
-class TfBuffer2D:
-    """The latest transform per (parent, child) from /tf and /tf_static, looked up along chains.
-
-    A planar cut of tf2's BufferCore: no time travel (the latest transform of each edge is used),
-    and only x, y and yaw (MyCar drives on a floor).
-    """
-
-    def __init__(self):
-        self.edges: dict[tuple[str, str], tuple[float, float, float]] = {}
-
-    def add(self, msg: TFMessage) -> None:
-        for t in msg.transforms:
-            r, p = t.transform.rotation, t.transform.translation
-            self.edges[(t.header.frame_id, t.child_frame_id)] = (p.x, p.y, kin.quaternion_to_yaw(r.x, r.y, r.z, r.w))
-
-    def frames(self) -> list[str]:
-        return sorted({f for edge in self.edges for f in edge})
-
-    def lookup(self, target: str, source: str):
-        """T_target_source (a pose in ``source`` mapped into ``target``), or None without a chain."""
-        if target == source:
-            return (0.0, 0.0, 0.0)
-        known = {target: (0.0, 0.0, 0.0)}
-        todo = [target]
-        while todo:
-            frame = todo.pop(0)
-            for (parent, child), tf in self.edges.items():
-                if parent == frame and child not in known:
-                    known[child] = compose(known[frame], tf)
-                    todo.append(child)
-                elif child == frame and parent not in known:
-                    known[parent] = compose(known[frame], invert(tf))
-                    todo.append(parent)
-            if source in known:
-                return known[source]
-        return None
 
 
 def check_goal(target_pose, current=(0.0, 0.0, 0.0), max_distance: float = 5.0) -> str | None:
@@ -120,12 +70,10 @@ class NavigationActionServer(Node):
         self.truth: tuple[float, float, float] | None = None
         self.rejections: list[str] = []
         self.results: list = []  # every Result returned, in order (for the chapter's drift table)
-        self.tf = TfBuffer2D()
+        self.tf = Buffer(logger=self.get_logger())
+        self.tf_listener = TransformListener(self.tf, self)
         self.create_subscription(Odometry, "/odom", self.on_odom, QOS_ODOM)
         self.create_subscription(Odometry, "/ground_truth", self.on_truth, QOS_ODOM)
-        self.create_subscription(TFMessage, "/tf", self.tf.add, 100)
-        self.create_subscription(TFMessage, "/tf_static", self.tf.add, QoSProfile(
-            depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL))
         self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", QOS_CMD_VEL)
         self.server = ActionServer(self, NavigateToPose, "/navigate_to_pose", self.execute,
                                    goal_callback=self.on_goal, cancel_callback=self.on_cancel)
@@ -151,12 +99,13 @@ class NavigationActionServer(Node):
         pose = (p.x, p.y, kin.quaternion_to_yaw(q.x, q.y, q.z, q.w))
         if frame == ODOM_FRAME:
             return pose
-        tf = self.tf.lookup(ODOM_FRAME, frame)
-        if tf is None:
-            known = ", ".join(self.tf.frames()) or "none"
+        try:
+            tf = self.tf.lookup_transform(ODOM_FRAME, frame)   # the latest transform, as Nav2 does for a goal
+        except TransformException as err:
+            known = ", ".join(self.tf.all_frames()) or "none"
             return (f"goal is in frame '{frame}', and no transform {ODOM_FRAME} <- {frame} is on /tf or /tf_static "
-                    f"(frames heard: {known}); send it in '{ODOM_FRAME}' or publish the {frame} -> {ODOM_FRAME} "
-                    "transform (a localisation node does)")
+                    f"(frames heard: {known}; tf2 says: {err}); send it in '{ODOM_FRAME}' or publish the "
+                    f"{frame} -> {ODOM_FRAME} transform (a localisation node does)")
         return compose(tf, pose)
 
     def on_goal(self, goal_request) -> GoalResponse:
@@ -199,17 +148,30 @@ class NavigationActionServer(Node):
         start = clock.now().nanoseconds
         step = 1.0 / self.p("control_rate")
         d0 = None
+        moved_at, moved_pose = start, self.pose   # the last time odometry showed motion, and where
         while True:
             if goal_handle.is_cancel_requested:
                 self.stop()
                 goal_handle.canceled()
                 result.success, result.message = False, "canceled"
                 return self._done(result)
-            elapsed = (clock.now().nanoseconds - start) * 1e-9
+            now = clock.now().nanoseconds
+            elapsed = (now - start) * 1e-9
+            if self.pose is not None and (moved_pose is None or math.hypot(
+                    self.pose[0] - moved_pose[0], self.pose[1] - moved_pose[1]) > 0.01
+                    or abs(kin.wrap_angle(self.pose[2] - moved_pose[2])) > 0.05):
+                moved_at, moved_pose = now, self.pose
+            reason = None
             if elapsed > self.p("timeout"):
+                reason = f"timeout: not there after {self.p('timeout'):g} s"
+            elif (now - moved_at) * 1e-9 > self.p("stall_timeout"):
+                reason = (f"stalled: odometry shows no motion for {self.p('stall_timeout'):g} s (the car is stuck, or "
+                          "the driver stopped publishing /odom)")
+            if reason:
                 self.stop()
                 goal_handle.abort()
-                result.success, result.message = False, f"timeout: not there after {self.p('timeout'):g} s"
+                result.success, result.message = False, reason
+                self.get_logger().warning(f"goal aborted: {reason}")
                 return self._done(result)
             if self.pose is None:  # no odometry yet
                 await self.sleep_async(step)
