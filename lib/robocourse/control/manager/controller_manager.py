@@ -313,7 +313,9 @@ class ControllerManager:
                               "inactive." + (f" ({why!r})" if why else ""))
             return return_type.ERROR
         if spec.c.is_chainable() and not self._export_interfaces(spec):
+            why = spec.lifecycle.last_exception
             spec.lifecycle.cleanup()
+            spec.lifecycle.last_exception = why
             return return_type.ERROR
         rate = spec.c.update_rate
         if rate > self.update_rate:
@@ -340,6 +342,7 @@ class ControllerManager:
         try:
             refs, states = c.export_reference_interfaces(), c.export_state_interfaces()
         except Exception as exc:  # noqa: BLE001 - a student's on_export_* may raise
+            spec.lifecycle.last_exception = exc
             self.logger.error(f"Export of the state or reference interfaces failed for controller '{name}': {exc!r}")
             return False
         if not refs and not states:
