@@ -3,7 +3,9 @@
 Counterpart: ``controller_manager::ControllerManager`` (ros2_control:controller_manager/src/
 controller_manager.cpp, rolling). What matches upstream, message for message:
 
-- load / configure / cleanup / unload with the ``<name>.type`` parameter and pluginlib lookup;
+- load / configure / cleanup / unload with the ``<name>.type`` parameter and pluginlib lookup; a
+  chainable controller's reference and state interfaces are exported at configure, after its
+  ``on_configure`` (names computed there exist), and removed at cleanup;
 - ``switch_controller(activate, deactivate, strictness, activate_asap, timeout)``: STRICT aborts
   the whole request ("Aborting, no controller is switched! ('STRICT' switch)"), BEST_EFFORT drops
   the offending controllers; interface problems fail the request whatever the strictness;
@@ -15,8 +17,12 @@ controller_manager.cpp, rolling). What matches upstream, message for message:
   deactivated while a preceding controller stays active;
 - per-controller ``update_rate`` (rolling: ``ticks = round(cm / rate)``, rate = cm / ticks);
 - an update() returning ERROR or raising deactivates the controller's chain group and activates
-  its ``fallback_controllers``; a hardware read/write ERROR deactivates every controller using
-  that hardware's interfaces, a write DEACTIVATE those holding its command interfaces.
+  its ``fallback_controllers``, and ``update()`` returns ERROR for that cycle; fallbacks are
+  checked as upstream (not the controller itself; before activation each exists, is configured
+  and could take over); a hardware read/write ERROR deactivates every controller using that
+  hardware's interfaces (a read() DEACTIVATE counts as ERROR), a write DEACTIVATE those holding
+  its command interfaces;
+- ``list_controllers`` fills the service's fields as upstream does for each state.
 
 Time: the same manager runs deterministically (``step()``/``spin_for()`` on simulated time, for
 tests and notebooks: a switch requested between cycles takes effect before the next update,

@@ -10,8 +10,11 @@ quintic splines (:mod:`.trajectory`). Like jazzy and later, the reference is sam
 trajectory time and the command one controller period ahead. Command interface sets: position,
 position+velocity, position+velocity+acceleration, position+effort, velocity, effort; velocity-
 or effort-only (without position) close the loop with a per-joint PID (``gains.<joint>.*``).
-Path/goal tolerances, goal_time, stopped_velocity_tolerance and cmd_timeout as upstream; the
-action result codes and strings are upstream's. ``~/controller_state`` publishes reference,
+Path/goal tolerances, goal_time, stopped_velocity_tolerance and cmd_timeout as upstream (a goal
+with an illegal tolerance, a negative other than -1 or an unknown joint, runs with the
+controller's defaults and an error in the log); the action result codes and strings are
+upstream's. On deactivate the active goal is aborted, position commands stay where they are and
+velocity / acceleration / effort commands become 0. ``~/controller_state`` publishes reference,
 feedback, error and output each update.
 
 Differences: the action goal is finished by a timer at ``action_monitor_rate`` on the
