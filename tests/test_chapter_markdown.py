@@ -39,9 +39,6 @@ KNOWN_VIOLATIONS: dict[str, list[str]] = {
     'chapters/05_hardware_drivers.ipynb': [
         '| transport | UDP, 1 kHz, synchronous | TCP: RTDE state stream 500 Hz + servoj targets |',
     ],
-    'solutions/05_hardware_drivers_exercises.ipynb': [
-        "The Franka-style box sends a STATE every 1 ms and wants a COMMAND carrying that state's `seq` before its next tick (`robocourse.drivers.franka_protocol` documents the bytes; use its `HEADER`, `state_struct(n)`, `encode_command` and constants).",
-    ],
 }
 
 

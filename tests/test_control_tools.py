@@ -169,3 +169,35 @@ def test_a_quiet_log_shows_only_the_lines_asked_for(capsys, monkeypatch):
     out = capsys.readouterr().out
     assert "[ERROR]" in out and "no_such" in out and "[INFO]" not in out
     assert log.show(mark, contains="nothing like this") == 0 and capsys.readouterr().out == ""
+
+
+def test_lifecycle_picture_draws_every_transition_and_marks_the_ones_taken():
+    from robocourse.control.lifecycle import Transition
+    from robocourse.control.picture import lifecycle_picture
+
+    history = [Transition("unknown", "on_init", "SUCCESS", "unconfigured"),
+               Transition("unconfigured", "on_configure", "FAILURE", "unconfigured"),
+               Transition("unconfigured", "on_configure", "SUCCESS", "inactive"),
+               Transition("inactive", "on_activate", "SUCCESS", "active"),
+               Transition("active", "on_error", "SUCCESS", "unconfigured")]
+    svg = lifecycle_picture(history).svg
+    assert svg.count("<path d=") == 13 + 1 + 3          # every transition, one FAILURE loop, three markers
+    assert "on_configure SUCCESS x1" in svg and "on_configure FAILURE x1 (stays)" in svg
+    assert "on_error SUCCESS x1" in svg and ">on_shutdown<" in svg      # taken with counts; never taken, plain
+    assert repr(lifecycle_picture(history)) == "<picture: SVG 920 x 470 px>"
+
+
+def test_a_component_records_every_lifecycle_callback_it_ran():
+    from robocourse.control import ControllerManager
+    from robocourse.control.motor_board import MotorBoard, MotorBoardSystem, motor_board_urdf
+
+    board = MotorBoard([0.1, 0.2])
+    cm = ControllerManager(motor_board_urdf(), components={"MotorBoard": MotorBoardSystem(board)},
+                           log=LogSink(log_to_stderr=False))
+    board.unplug()
+    cm.step()
+    steps = [(t.start, t.callback, t.result, t.goal) for t in cm.rm.components["MotorBoard"].wrapper.history]
+    assert steps == [("unknown", "on_init", "SUCCESS", "unconfigured"),
+                     ("unconfigured", "on_configure", "SUCCESS", "inactive"),
+                     ("inactive", "on_activate", "SUCCESS", "active"),
+                     ("active", "on_error", "SUCCESS", "unconfigured")]

@@ -1,41 +1,56 @@
-"""The Franka-style box and its libfranka-like client over real loopback UDP (no timed assertions:
-the machine is shared, so the reflex tests stop answering on purpose and the others allow many misses)."""
+"""The simulated FR3 driven by the real client, pylibfranka 0.21.3 from PyPI, over loopback.
+
+Each test runs its own box (its own 127.0.0.x, so tests of other helpers may run at the same
+time) and is bounded by construction: pylibfranka holds the GIL while it waits (pitfall C8), so
+pytest-timeout cannot interrupt a call that waits for a robot answer; every loop here has a fixed
+number of cycles, and every wait ends by the robot's own rules (a reflex, a 1 s UDP timeout). No timed assertions: the machine is shared, so a test that is not about
+lost packets gives the box a lenient ``max_lost``, and the reflex tests stop answering on purpose.
+"""
 
 from __future__ import annotations
 
-import os
-import signal
+import math
 import socket
 import struct
-import subprocess
-import sys
 import time
 
 import numpy as np
 import pytest
 
-from robocourse.drivers import BoxStartError, start_franka_box
-from robocourse.drivers import franka_protocol as fp
-from robocourse.drivers.franka_client import (
-    ControlException,
-    JointPositions,
-    NetworkException,
-    Robot,
-    Torques,
-)
+pylibfranka = pytest.importorskip("pylibfranka", reason="pylibfranka (PyPI, Linux x86_64) is not installed")
 
-# the box runs libfranka's 1 kHz protocol: a missed tick is a communication reflex, so these
-# run alone (tests/conftest.py: serial)
-pytestmark = pytest.mark.serial
+from robocourse.drivers import box_stats, start_franka_box  # noqa: E402
+from robocourse.drivers import franka_wire as fw  # noqa: E402
 
-LENIENT = 100_000   # missed ticks in a row before the reflex, when a test is not about the reflex
+LENIENT = 100_000       # lost cycles in a row before the reflex, when a test is not about the reflex
+IGNORE = pylibfranka.RealtimeConfig.kIgnore
+HOME = np.array([0.0, -math.pi / 4, 0.0, -3 * math.pi / 4, 0.0, math.pi / 2, math.pi / 4])
+pytestmark = [pytest.mark.timeout(90), pytest.mark.serial]   # 1 kHz loops: timing-sensitive by nature
 
 
 @pytest.fixture
 def box():
-    b = start_franka_box(max_missed=LENIENT, client_timeout=LENIENT)
+    b = start_franka_box(max_lost=LENIENT)
     yield b
     b.stop()
+
+
+def cosine_motion(control, q0, delta, seconds, state=None):
+    """A joint position motion with pylibfranka's own loop: q0 + delta (1 - cos(pi t / T)) / 2,
+    t summed from readOnce's Durations (libfranka's examples' way); returns the tracking errors."""
+    q0, delta = np.asarray(q0, float), np.asarray(delta, float)
+    t, errors = 0.0, []
+    cmd = pylibfranka.JointPositions(q0.tolist())
+    while True:
+        state, period = control.readOnce()
+        t += period.to_sec()
+        errors.append(float(np.max(np.abs(np.asarray(state.q) - np.asarray(state.q_d)))))
+        s = min(1.0, t / seconds)
+        cmd.q = (q0 + delta * (1 - math.cos(math.pi * s)) / 2).tolist()
+        cmd.motion_finished = t >= seconds
+        control.writeOnce(cmd)
+        if cmd.motion_finished:
+            return state, errors
 
 
 def wait_for(cond, seconds=5.0):
@@ -47,314 +62,340 @@ def wait_for(cond, seconds=5.0):
     return False
 
 
-def ramp_callback(q0, joint, delta, ramp_ticks, ticks):
-    """A Robot.control callback: move ``joint`` by ``delta`` rad over ``ramp_ticks``, finish after ``ticks``."""
-    def ramp(state, period):
-        ramp.k += 1
-        q = q0.copy()
-        q[joint] += delta * min(1.0, ramp.k / ramp_ticks)
-        return JointPositions(q, motion_finished=ramp.k >= ticks)
+# --- the arm: one URDF for MuJoCo, the ros2_control parser and libfranka ---------------------------
 
-    ramp.k = 0
-    return ramp
+def test_one_urdf_serves_mujoco_the_ros2_control_parser_and_libfranka(box):
+    from robocourse.control.hardware.info import parse_control_resources_from_urdf
+    from robocourse.sim.robots import RobotSim, joint_limits, urdf_text
 
-
-def test_state_carries_six_joints_and_increasing_sequence_numbers(box):
-    with Robot(port=box.ports["udp"]) as robot:
-        assert (robot.n, robot.period_us, robot.max_missed) == (6, 1000, LENIENT)
-        s1 = robot.read_once()
-        s2 = robot.read_once()
-        assert s2.seq > s1.seq >= 1
-        np.testing.assert_allclose(s1.q, [0.0, -np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, 0.0], atol=1e-3)
-        assert s1.robot_mode == "idle" and s1.current_errors == []
-        assert s1.tau_J.shape == (6,) and abs(s1.tau_J[1]) > 1.0   # the shoulder holds the arm up
-
-
-def test_position_control_moves_joint_to_the_commanded_ramp_end(box):
-    with Robot(port=box.ports["udp"]) as robot:
-        q0 = robot.read_once().q
-
-        ramp = ramp_callback(q0, joint=0, delta=0.3, ramp_ticks=500, ticks=1500)
-        last = robot.control(ramp)
-        assert ramp.k == 1500
-        assert abs(last.q[0] - (q0[0] + 0.3)) < 0.01
-        assert wait_for(lambda: robot.read_once().robot_mode == "idle")   # motion_finished ended the motion
-        stats = robot.box_stats()
-        assert stats["commands_ok"] + stats.get("missed", 0) == stats["ticks_moving"]  # a zero counter is absent
-        # every command sent is accounted for: applied, late (after the next tick) or replaced by a later one
-        assert stats["commands_ok"] + stats.get("late", 0) + stats.get("duplicates", 0) == 1500
+    sim = RobotSim("fr3")
+    assert sim.joint_names == tuple(f"fr3_joint{i}" for i in range(1, 8))
+    np.testing.assert_allclose(sim.positions, HOME)
+    lim = joint_limits("fr3")
+    assert (lim["fr3_joint4"].lower, lim["fr3_joint4"].upper) == (-3.0481, -0.1458)      # libfranka 0.21.2
+    assert [lim[f"fr3_joint{i}"].velocity for i in range(1, 8)] == [2.62, 2.62, 2.62, 2.62, 5.26, 4.18, 5.26]
+    assert [lim[f"fr3_joint{i}"].effort for i in range(1, 8)] == [87, 87, 87, 87, 12, 12, 12]
+    (hw,) = parse_control_resources_from_urdf(urdf_text("fr3"))
+    assert [j.name for j in hw.joints] == list(sim.joint_names)
+    assert [c.name for c in hw.joints[0].command_interfaces] == ["position", "velocity", "effort"]
+    # libfranka parses the same file (GetRobotModel) and builds its dynamics from it: its
+    # gravity torques equal the box's measured torques at rest, and MuJoCo's gravity model
+    robot = pylibfranka.Robot(box.host, IGNORE)
+    state = robot.read_once()
+    g_libfranka = np.asarray(robot.load_model().gravity(state))
+    np.testing.assert_allclose(g_libfranka, sim.gravity_torques(), atol=1e-6)
+    np.testing.assert_allclose(np.asarray(state.tau_J), g_libfranka, atol=2e-3)
 
 
-def test_zero_torque_command_holds_because_the_box_adds_gravity(box):
-    with Robot(port=box.ports["udp"]) as robot:
-        q0 = robot.read_once().q
+def test_read_once_gives_the_fr3_at_home_with_libfranka_state_fields(box):
+    from robocourse.sim.robots import Kinematics
 
-        def zero(state, period):
-            zero.k += 1
-            return Torques(np.zeros(6), motion_finished=zero.k >= 500)
+    robot = pylibfranka.Robot(box.host, IGNORE)
+    s1 = robot.read_once()
+    s2 = robot.read_once()
+    q = np.asarray(s1.q)
+    np.testing.assert_allclose(q, HOME, atol=1e-6)          # float32 on the wire
+    assert s1.robot_mode == pylibfranka.RobotMode.Idle
+    assert not s1.current_errors and s1.control_command_success_rate == 0.0   # 0 when no motion runs
+    assert list(s1.O_ddP_O) == pytest.approx([0.0, 0.0, -9.81])
+    # O_T_EE (column-major) is the flange from the FR3's kinematics: x 0.307, z 0.590 at home
+    o_t_ee = np.asarray(s1.O_T_EE).reshape(4, 4).T
+    np.testing.assert_allclose(o_t_ee, Kinematics("fr3").calculate_link_transform(q), atol=1e-5)
+    assert o_t_ee[:3, 3] == pytest.approx([0.3069, 0.0, 0.5903], abs=1e-3)
+    assert np.all(np.abs(np.asarray(s1.dq)) < 1e-6)
+    # RobotState.time is message_id in ms: it advances with the robot's clock
+    assert s2.time.to_sec() > s1.time.to_sec()
 
-        zero.k = 0
-        last = robot.control(zero, mode="torque")
-        assert np.max(np.abs(last.q - q0)) < 0.02
 
-
-def test_missing_commands_trigger_reflex_arm_holds_until_recovery():
-    box = start_franka_box(max_missed=5)
+def test_two_boxes_bind_two_loopback_addresses():
+    a, b = start_franka_box(), start_franka_box()
     try:
-        with Robot(port=box.ports["udp"]) as robot:
-            robot.read_latest()
-            robot.write_command(robot.q.copy())        # one command: the robot is moving
-            assert wait_for(lambda: robot.read_latest(0.1) and robot.errors != 0)
-            assert fp.error_names(robot.errors) == ["communication_constraints_violation"]
-            assert robot.robot_mode == fp.ROBOT_REFLEX
-            q_reflex = robot.q.copy()
-            for _ in range(20):                        # commands are ignored while in reflex
-                robot.read_latest()
-                target = q_reflex.copy()
-                target[0] += 0.5
-                robot.write_command(target)
-            robot.read_latest()
-            assert np.max(np.abs(robot.q - q_reflex)) < 1e-3       # brakes: the arm holds
-            stats = robot.box_stats()
-            assert stats["reflexes"] == 1 and stats["missed"] >= 6 and stats["ignored_in_reflex"] >= 1
-            with pytest.raises(ControlException, match="communication_constraints_violation"):
-                robot.control(lambda s, p: JointPositions(s.q))
-            assert robot.automatic_error_recovery() == []
-            robot.read_latest()
-            assert robot.errors == 0 and robot.robot_mode == fp.ROBOT_IDLE
-            assert robot.box_stats()["recoveries"] == 1
+        assert a.host != b.host and a.host.startswith("127.0.0.") and b.host.startswith("127.0.0.")
+        assert a.ports["command"] == b.ports["command"] == 1337
+        ra, rb = pylibfranka.Robot(a.host, IGNORE), pylibfranka.Robot(b.host, IGNORE)
+        assert ra.read_once().time.to_sec() > 0 and rb.read_once().time.to_sec() > 0
+    finally:
+        a.stop()
+        b.stop()
+
+
+# --- control -----------------------------------------------------------------------------------------
+
+def test_two_second_joint_position_motion_is_tracked_and_ends_idle(box):
+    robot = pylibfranka.Robot(box.host, IGNORE)
+    q0 = np.asarray(robot.read_once().q)
+    delta = np.array([0.3, -0.2, 0.0, 0.3, 0.0, 0.2, -0.3])
+    control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+    state, errors = cosine_motion(control, q0, delta, 2.0)
+    del control
+    after = robot.read_once()
+    assert after.robot_mode == pylibfranka.RobotMode.Idle and not after.current_errors
+    # the joint impedance controller tracks q_d within 10 mrad (peak speed 0.24 rad/s) and
+    # settles on the target
+    assert max(errors) < 1e-2, max(errors)
+    assert wait_for(lambda: np.max(np.abs(np.asarray(robot.read_once().q) - (q0 + delta))) < 1e-3, 2.0)
+    s = box_stats(box)
+    assert s["motions"] == s["motions_finished"] == 1 and s.get("reflexes", 0) == 0
+    # every state of the motion either got its command in time or was lost
+    assert s["cycles_moving"] == s["commands_ok"] + s["lost"] and s["commands_ok"] > 1000
+
+
+def test_joint_velocity_control_moves_and_stops(box):
+    robot = pylibfranka.Robot(box.host, IGNORE)
+    q0 = np.asarray(robot.read_once().q)
+    control = robot.start_joint_velocity_control(pylibfranka.ControllerMode.JointImpedance)
+    t, cmd = 0.0, pylibfranka.JointVelocities([0.0] * 7)
+    while True:                    # joint 1: v = 0.2 sin(pi t)^2 over 1 s (smooth start and stop)
+        _, period = control.readOnce()
+        t += period.to_sec()
+        cmd.dq = [0.2 * math.sin(math.pi * min(t, 1.0)) ** 2] + [0.0] * 6
+        cmd.motion_finished = t >= 1.0
+        control.writeOnce(cmd)
+        if cmd.motion_finished:
+            break
+    del control
+    assert wait_for(lambda: abs(robot.read_once().dq[0]) < 1e-3, 2.0)
+    moved = robot.read_once().q[0] - q0[0]
+    assert moved == pytest.approx(0.1, abs=0.01)            # the integral of 0.2 sin^2 over 1 s
+
+
+def test_zero_torque_holds_the_arm_because_the_robot_adds_gravity(box):
+    robot = pylibfranka.Robot(box.host, IGNORE)
+    q0 = np.asarray(robot.read_once().q)
+    control = robot.start_torque_control()
+    t, zero, drift = 0.0, pylibfranka.Torques([0.0] * 7), 0.0
+    while t < 1.0:
+        state, period = control.readOnce()
+        t += period.to_sec()
+        drift = max(drift, float(np.max(np.abs(np.asarray(state.q) - q0))))
+        assert state.robot_mode == pylibfranka.RobotMode.Move
+        zero.motion_finished = t >= 1.0
+        control.writeOnce(zero)
+    del control
+    assert drift < 1e-3, drift
+    assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+
+
+def test_a_step_command_is_refused_with_libfranka_s_limit_error(box):
+    robot = pylibfranka.Robot(box.host, IGNORE)
+    q = list(robot.read_once().q)
+    control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+    control.readOnce()
+    q[0] += 0.05                     # 50 mrad in one ms: 50 rad/s, far above the 2.62 rad/s limit
+    control.writeOnce(pylibfranka.JointPositions(q))
+    with pytest.raises(pylibfranka.ControlException, match="joint_motion_generator_velocity_limits_violation"):
+        for _ in range(100):
+            control.readOnce()
+            control.writeOnce(pylibfranka.JointPositions(q))
+    assert "commanded velocity" in box_stats(box)["last_reflex"]
+
+
+# --- the communication reflex, recovery -------------------------------------------------------------
+
+def test_25_silent_cycles_raise_communication_constraints_violation_then_recovery_and_a_new_motion_work():
+    box = start_franka_box()                                # the robot's limit: 20 lost in a row
+    try:
+        robot = pylibfranka.Robot(box.host, IGNORE)
+        q0 = np.asarray(robot.read_once().q)
+        control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+        hold = pylibfranka.JointPositions(q0.tolist())
+        for _ in range(50):
+            control.readOnce()
+            control.writeOnce(hold)
+        time.sleep(0.025)                                   # 25 cycles without a command
+        with pytest.raises(pylibfranka.ControlException) as exc:
+            for _ in range(100):                            # bounded: the reflex ends the motion
+                control.readOnce()
+                control.writeOnce(hold)
+        assert str(exc.value) == ('libfranka: Move command aborted: motion aborted by reflex! '
+                                  '["communication_constraints_violation"]')
+        del control
+        state = robot.read_once()
+        assert state.robot_mode == pylibfranka.RobotMode.Reflex
+        assert state.current_errors.communication_constraints_violation
+        assert state.last_motion_errors.communication_constraints_violation
+        with pytest.raises(pylibfranka.CommandException, match="rejected"):
+            robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+        robot.automatic_error_recovery()
+        state = robot.read_once()
+        assert state.robot_mode == pylibfranka.RobotMode.Idle and not state.current_errors
+        control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+        cosine_motion(control, np.asarray(state.q), np.full(7, 0.02), 1.0)
+        del control
+        s = box_stats(box)
+        assert s["reflexes"] == 1 and s["recoveries"] == 1 and s["motions_finished"] == 1
+        assert s["max_lost_in_row"] >= 20
     finally:
         box.stop()
 
 
-def raw_socket(box):
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.connect(("127.0.0.1", box.ports["udp"]))
-    s.settimeout(2.0)
-    return s
+def test_success_rate_is_the_share_of_the_last_100_commands(box):
+    robot = pylibfranka.Robot(box.host, IGNORE)
+    q0 = list(robot.read_once().q)
+    control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+    hold = pylibfranka.JointPositions(q0)
+    for _ in range(200):
+        control.readOnce()
+        control.writeOnce(hold)
+    time.sleep(0.010)                                        # ~10 cycles lost on purpose
+    state, _ = control.readOnce()
+    control.writeOnce(hold)
+    rate = state.control_command_success_rate
+    s = box_stats(box)
+    lost_recent = s["lost"]
+    # the rate the robot reports is (100 - lost among the last 100) / 100, all from the robot's count
+    assert 0.8 <= rate <= 0.99, rate
+    assert lost_recent >= round((1 - rate) * 100)
+    hold.motion_finished = True
+    control.writeOnce(hold)          # libfranka repeats it until the robot is idle, then returns
+    del control
+    assert robot.read_once().control_command_success_rate == 0.0    # 0 when no motion runs
 
 
-def test_malformed_datagrams_are_counted_by_reason_and_ignored(box):
-    with Robot(port=box.ports["udp"]) as robot:
-        robot.read_latest()
-        seq = robot.last_seq
-        n = robot.n
-        bad = robot.sock                     # the connected client's socket: not "foreign"
-        bad.send(b"RCF")                                                             # short
-        bad.send(struct.pack("<4sBBHQ", b"RCFR", 2, fp.COMMAND, n, seq) + bytes(56))  # version 2
-        bad.send(struct.pack("<4sBBHQ", b"XXXX", 1, fp.COMMAND, n, seq) + bytes(56))  # magic
-        bad.send(fp.header(42))                                                      # unknown type
-        bad.send(fp.encode_command(n, seq + 10_000, fp.MODE_POSITION, robot.q))      # future seq
-        bad.send(fp.encode_command(n, 0, fp.MODE_POSITION, robot.q))                 # old seq
-        bad.send(fp.header(fp.COMMAND, 7, seq) + bytes(64))                          # 7 joints
-        bad.send(fp.encode_command(n, seq, fp.MODE_POSITION, robot.q)[:-8])           # cut short
-        stats = robot.box_stats()
-        assert stats["rx_short"] == 1
-        assert stats["rx_bad_version"] == 1
-        assert stats["rx_bad_magic"] == 1
-        assert stats["rx_bad_type"] == 1
-        assert stats["rx_bad_seq"] == 1
-        assert stats["late"] >= 1
-        assert stats["rx_bad_length"] == 2
-        before = robot.read_once().seq
-        assert robot.read_once().seq > before            # the box keeps streaming
-    assert box.alive()
+# --- versions, clients, faults ------------------------------------------------------------------------
 
-
-def test_second_client_is_refused_while_the_first_keeps_its_stream(box):
-    with Robot(port=box.ports["udp"]) as first:
-        with pytest.raises(NetworkException, match="busy: another client"):
-            Robot(port=box.ports["udp"])
-        assert first.read_once().seq > 0
-        assert first.box_stats()["rejected_connects"] == 1
-    with Robot(port=box.ports["udp"]) as again:      # after DISCONNECT a new client is welcome
-        assert again.read_once().seq > 0
-
-
-def test_port_in_use_refuses_to_start_with_the_port_named():
-    taken = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    taken.bind(("127.0.0.1", 0))
-    port = taken.getsockname()[1]
+def test_a_robot_of_another_server_version_is_refused_by_the_client():
+    old = start_franka_box(server_version=9)
     try:
-        with pytest.raises(BoxStartError, match=rf"port {port}.*Address already in use.*pass 0 for a free one"):
-            start_franka_box(port=port)
+        with pytest.raises(pylibfranka.FrankaException, match=r"Incompatible library version \(server version: 9, "
+                                                              r"library version: 10\)"):
+            pylibfranka.Robot(old.host, IGNORE)
     finally:
-        taken.close()
+        old.stop()
 
 
-def test_client_refuses_port_zero_and_reports_a_silent_box():
-    with pytest.raises(ValueError, match="port=0"):
-        Robot(port=0)
-    silent = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    silent.bind(("127.0.0.1", 0))
+def test_a_client_of_another_version_gets_the_incompatible_status(box):
+    with socket.create_connection((box.host, 1337), timeout=2) as s:
+        s.sendall(fw.HEADER.pack(fw.CONNECT, 0, 16) + fw.REQUEST[fw.CONNECT].pack(9, 40000))
+        reply = s.recv(64)
+    assert fw.HEADER.unpack_from(reply) == (fw.CONNECT, 0, 15)
+    assert fw.CONNECT_REPLY.unpack_from(reply, 12) == (fw.CONNECT_INCOMPATIBLE_VERSION, 10)
+    assert box_stats(box)["incompatible_connects"] == 1
+
+
+def test_a_second_client_reads_states_but_cannot_start_a_second_motion(box):
+    first, second = pylibfranka.Robot(box.host, IGNORE), pylibfranka.Robot(box.host, IGNORE)
+    q0 = np.asarray(first.read_once().q)
+    control = first.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+    hold = pylibfranka.JointPositions(q0.tolist())
+    control.readOnce()
+    control.writeOnce(hold)
+    watched = second.read_once()                      # the second client sees the motion
+    assert watched.robot_mode == pylibfranka.RobotMode.Move
+    with pytest.raises(pylibfranka.ControlException, match="Attempted to start multiple motions"):
+        second.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+    _, errors = cosine_motion(control, q0, np.full(7, 0.02), 1.0)   # the first one's motion goes on
+    del control
+    assert first.read_once().robot_mode == pylibfranka.RobotMode.Idle
+
+
+def test_malformed_udp_and_tcp_are_counted_and_the_motion_survives(box):
+    robot = pylibfranka.Robot(box.host, IGNORE)
+    q0 = np.asarray(robot.read_once().q)
+    control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+    hold = pylibfranka.JointPositions(q0.tolist())
+    udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    tcp_bad_size = socket.create_connection((box.host, 1337), timeout=2)
+    tcp_unknown = socket.create_connection((box.host, 1337), timeout=2)
     try:
-        with pytest.raises(NetworkException, match="within 0.3 s"):
-            Robot(port=silent.getsockname()[1], timeout=0.3)
+        for k in range(300):
+            control.readOnce()
+            control.writeOnce(hold)
+            if k == 50:
+                udp.sendto(b"\x00" * 12, (box.host, box.ports["udp"]))                  # too short
+                udp.sendto(b"\x00" * 1000, (box.host, box.ports["udp"]))                # too long
+                udp.sendto(bytes(fw.COMMAND.size), (box.host, box.ports["udp"]))        # not the mover's address
+            if k == 100:
+                tcp_bad_size.sendall(struct.pack("<III", fw.CONNECT, 0, 9))             # size below the header
+                tcp_unknown.sendall(struct.pack("<III", 99, 0, 12))                     # no such command
+        # the box closed both bad connections and is still serving the motion
+        assert tcp_bad_size.recv(16) == b"" and tcp_unknown.recv(16) == b""
+        cosine_motion(control, q0, np.full(7, 0.02), 1.0)
+        del control
     finally:
-        silent.close()
+        udp.close()
+        tcp_bad_size.close()
+        tcp_unknown.close()
+    s = box_stats(box)
+    assert s["udp_bad_length"] == 2 and s["udp_foreign"] == 1 and s["tcp_malformed"] == 2
+    assert s["motions_finished"] == 1 and robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
 
 
-def test_killed_box_makes_the_client_raise_network_exception():
-    box = start_franka_box(max_missed=LENIENT)
-    robot = Robot(port=box.ports["udp"], timeout=0.3)
+def test_a_client_that_disconnects_mid_motion_leaves_the_robot_in_the_communication_reflex(box):
+    import subprocess
+    import sys
+
+    code = f"""
+import pylibfranka, sys, time
+r = pylibfranka.Robot({box.host!r}, pylibfranka.RealtimeConfig.kIgnore)
+q = list(r.read_once().q)
+c = r.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+for _ in range(100):
+    c.readOnce(); c.writeOnce(pylibfranka.JointPositions(q))
+print("moving", flush=True)
+time.sleep(60)
+"""
+    child = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    try:
+        assert child.stdout.readline().strip() == "moving"
+        child.kill()
+        child.wait(5)
+    finally:
+        if child.poll() is None:
+            child.kill()
+        child.stdout.close()
+    robot = pylibfranka.Robot(box.host, IGNORE)
+    assert wait_for(lambda: robot.read_once().current_errors.communication_constraints_violation, 3.0)
+    robot.automatic_error_recovery()
+    assert robot.read_once().robot_mode == pylibfranka.RobotMode.Idle
+
+
+def test_a_killed_box_makes_read_once_raise_network_exception_within_its_timeout():
+    box = start_franka_box(max_lost=LENIENT)
+    robot = pylibfranka.Robot(box.host, IGNORE)
     robot.read_once()
     box.kill()
-    with pytest.raises(NetworkException):
-        for _ in range(1000):
-            robot.read_once()
-    robot.close()
+    t0 = time.monotonic()
+    with pytest.raises(pylibfranka.NetworkException, match="UDP receive: Timeout"):
+        robot.read_once()
+    assert time.monotonic() - t0 < 5.0
     box.stop()
 
 
-# a client in its own process: connects, moves joint 0 slowly forever, says MOVING once it is in control
-_CHILD = """
-import sys
-from robocourse.drivers.franka_client import JointPositions, Robot
-robot = Robot(port=int(sys.argv[1]))
-q0 = robot.read_once().q.copy()
-k = 0
-def creep(state, period):
-    global k
-    k += 1
-    if k == 200:
-        print("MOVING", flush=True)
-    q = q0.copy()
-    q[0] += 1e-4 * k
-    return JointPositions(q)
-robot.control(creep)
-"""
+def test_error_names_match_pylibfranka_s_errors_fields():
+    fields = {n for n in dir(pylibfranka.Errors) if not n.startswith("_")}
+    assert set(fw.ERROR_NAMES) <= fields
+    assert fw.ERROR_NAMES[fw.ERR_COMMUNICATION_CONSTRAINTS_VIOLATION] == "communication_constraints_violation"
 
 
-def _connect_when_free(port, seconds=10.0):
-    deadline = time.monotonic() + seconds
-    while True:
+# --- students are not root ----------------------------------------------------------------------------
+
+def test_unprivileged_client_with_rt_settings_refused_carries_on_and_kenforce_says_why(box):
+    from robocourse.rt.permissions import run_unprivileged
+
+    proc = run_unprivileged(f"""
+        import pylibfranka
         try:
-            return Robot(port=port)
-        except NetworkException as exc:
-            if "busy" not in str(exc) or time.monotonic() > deadline:
-                raise
-            time.sleep(0.02)
-
-
-def test_client_process_killed_mid_motion_frees_the_slot_and_the_next_client_recovers_and_moves():
-    box = start_franka_box(max_missed=1000, client_timeout=50)   # lenient: a loaded machine must not end the motion early
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
-    child = subprocess.Popen([sys.executable, "-c", _CHILD, str(box.ports["udp"])], stdout=subprocess.PIPE, env=env)
-    try:
-        assert child.stdout.readline() == b"MOVING\n"
-        os.kill(child.pid, signal.SIGKILL)            # no DISCONNECT: the socket just closes
-        assert child.wait(5) == -signal.SIGKILL
-        with _connect_when_free(box.ports["udp"]) as robot:
-            state = robot.read_once()
-            assert state.robot_mode == "reflex"              # the motion died with its client
-            assert state.current_errors == ["communication_constraints_violation"]
-            stats = robot.box_stats()
-            assert stats["connects"] == 2 and stats["released_silent_clients"] == 1 and stats["reflexes"] == 1
-            assert stats["client"][1] == robot.sock.getsockname()[1]
-            assert robot.automatic_error_recovery() == []
-            q0 = robot.read_once().q.copy()
-
-            last = robot.control(ramp_callback(q0, joint=1, delta=0.2, ramp_ticks=400, ticks=1000))
-            assert abs(last.q[1] - (q0[1] + 0.2)) < 0.01     # the new client controls the arm
-            assert robot.box_stats()["recoveries"] == 1
-    finally:
-        child.kill()
-        child.wait()
-        box.stop()
-
-
-def test_same_client_connecting_twice_is_acknowledged_again_and_keeps_its_slot(box):
-    with Robot(port=box.ports["udp"]) as robot:
-        robot.read_once()
-        robot.sock.send(fp.header(fp.CONNECT))        # a retry: this client's ACK could have been lost
-        deadline = time.monotonic() + 5
-        acked = False
-        while not acked and time.monotonic() < deadline:
-            msg = robot._recv(0.1)
-            acked = msg is not None and fp.HEADER.unpack_from(msg)[2] == fp.CONNECT_ACK
-        assert acked
-        stats = robot.box_stats()
-        assert (stats["connects"], stats["repeated_connects"], stats.get("rejected_connects", 0)) == (1, 1, 0)
-        assert stats["client"][1] == robot.sock.getsockname()[1]
-        assert robot.read_once().seq > 0                 # the stream goes on to the same client
-        # a second Robot object in the same process is a second socket: refused like any other client
-        with pytest.raises(NetworkException, match="busy: another client"):
-            Robot(port=box.ports["udp"])
-
-
-def test_a_silent_live_client_loses_its_slot_to_a_newcomer_after_client_timeout():
-    box = start_franka_box(max_missed=LENIENT, client_timeout=30)
-    try:
-        first = Robot(port=box.ports["udp"], timeout=0.3)
-        first.read_once()
-        second = _connect_when_free(box.ports["udp"])   # first sends nothing: after 30 ticks it is "gone"
-        assert second.read_once().seq > 0
-        first.resync()
-        assert not first.read_latest(0.2)               # the states now go to the newcomer
-        first.write_command(first.q)                    # and the old client's commands are foreign
-        assert wait_for(lambda: second.box_stats().get("rx_foreign", 0) == 1)
-        stats = second.box_stats()
-        assert stats["released_silent_clients"] == 1 and stats.get("reflexes", 0) == 0   # it was not moving
-        first.close()
-        second.close()
-    finally:
-        box.stop()
-
-
-def test_client_timeout_below_one_tick_is_refused_with_the_rule():
-    with pytest.raises(BoxStartError, match=r"client_timeout=0 must be a whole number of ticks >= 1"):
-        start_franka_box(client_timeout=0)
-
-
-def test_command_with_a_future_sequence_number_is_refused_and_not_applied(box):
-    with Robot(port=box.ports["udp"]) as robot:
-        robot.read_latest()
-        q = robot.q.copy()
-        target = q.copy()
-        target[0] += 0.5
-        for _ in range(50):                              # a state the box has not sent (and will not for 1000 s)
-            robot.read_latest()
-            robot.sock.send(fp.encode_command(robot.n, robot.last_seq + 1_000_000, fp.MODE_POSITION, target))
-        time.sleep(0.05)
-        stats = robot.box_stats()
-        assert stats["rx_bad_seq"] == 50
-        assert stats.get("commands_ok", 0) == 0 and stats.get("motions", 0) == 0
-        state = robot.read_once()
-        assert state.robot_mode == "idle"
-        assert abs(state.q[0] - q[0]) < 1e-3             # nothing moved
-
-
-def test_stats_are_answered_to_a_non_client_and_the_histogram_counts_every_round_trip(box):
-    from robocourse.drivers.franka_box import RTT_HIST_EDGES_US
-    from robocourse.drivers.franka_client import query_box_stats
-
-    with Robot(port=box.ports["udp"]) as robot:
-        def hold(state, period):
-            hold.k += 1
-            return JointPositions(state.q, motion_finished=hold.k >= 300)
-
-        hold.k = 0
-        robot.control(hold)
-        stats = query_box_stats(port=box.ports["udp"])       # a socket of its own, never CONNECTed
-        assert stats["client"][1] == robot.sock.getsockname()[1]   # the holder keeps the slot
-        assert stats.get("rejected_connects", 0) == 0 and stats.get("rx_foreign", 0) == 0
-        assert len(stats["rtt_hist_counts"]) == len(RTT_HIST_EDGES_US) - 1
-        assert sum(stats["rtt_hist_counts"]) == stats["rtt_n"] == 300   # one round trip per command answered
-    with pytest.raises(ValueError, match="port=0"):
-        query_box_stats(port=0)
-
-
-def test_roundtrip_state_rate_never_exceeds_the_box_tick_rate_even_after_a_slow_start():
-    from robocourse.drivers.measure import franka_roundtrip
-
-    calls = []
-
-    def slow_first():                          # a 50 ms stall at the first state: states pile up meanwhile
-        calls.append(1)
-        if len(calls) == 1:
-            time.sleep(0.05)
-
-    r = franka_roundtrip(0.3, work=slow_first)
-    assert r.states_sent >= 1 and r.wall_s > 0
-    assert r.states_sent <= r.wall_s * 1000 + 2       # sequence numbers over wall time: at most one per 1 ms tick
-    assert sum(r.rtt_hist_counts) >= r.commands_ok    # every command answered in time has its round trip binned
+            pylibfranka.Robot({box.host!r}, pylibfranka.RealtimeConfig.kEnforce)
+            print("KENFORCE accepted")
+        except pylibfranka.RealtimeException as exc:
+            print("KENFORCE refused:", exc)
+        robot = pylibfranka.Robot({box.host!r}, pylibfranka.RealtimeConfig.kIgnore)
+        q = list(robot.read_once().q)
+        with settings.realtime(quiet=True, heap_size=1 << 20) as reports:
+            control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+            cmd = pylibfranka.JointPositions(q)
+            for k in range(500):
+                control.readOnce()
+                cmd.motion_finished = k == 499
+                control.writeOnce(cmd)
+        print("RT", [(r.name, r.ok) for r in reports])
+        print("DETAIL", [r.detail for r in reports])
+        print("MODE", robot.read_once().robot_mode)
+    """, timeout=60)
+    out = proc.stdout
+    assert "MODE RobotMode.Idle" in out, (out, proc.stderr[-2000:])
+    rt = next(line for line in out.splitlines() if line.startswith("RT "))
+    assert "('mlockall', False)" in rt, rt          # refused (64 KiB RLIMIT_MEMLOCK), and the loop ran on
+    kenforce = next(line for line in out.splitlines() if line.startswith("KENFORCE"))
+    assert kenforce.startswith("KENFORCE refused:") or kenforce == "KENFORCE accepted"

@@ -1,10 +1,9 @@
-"""FrankaStyleSystem / URStyleSystem under the controller manager: tracking, a killed box, a reflex,
-bad descriptions, and no box left behind when its parent dies."""
+"""URStyleSystem under the controller manager: tracking, a killed box, bad descriptions, and no
+box left behind when its parent dies (FrankaStyleSystem: tests/test_drivers_franka_system.py)."""
 
 from __future__ import annotations
 
 import os
-import re
 import signal
 import subprocess
 import sys
@@ -27,11 +26,6 @@ SPAWN = ["joint_state_broadcaster", "forward_position_controller"]
 
 # a generous read_timeout: the machine is shared, and a box stalled by the scheduler for 100 ms
 # must not fail a test that is not about stalls (the fault tests set their own)
-def franka_cm(**params):
-    urdf = drivers.arm_urdf("robocourse/FrankaStyleSystem", {"max_missed": 100_000, "read_timeout": 2.0, **params})
-    return bringup(urdf=urdf, param_file=drivers.CONTROLLERS_YAML, spawn=SPAWN)
-
-
 def ur_cm(**params):
     urdf = drivers.arm_urdf("robocourse/URStyleSystem", {"read_timeout": 2.0, "keepalive": 2.0, **params},
                             command_interfaces=("position",))
@@ -58,8 +52,7 @@ def ur_cycles(cm, n):
         time.sleep(0.002)
 
 
-@pytest.mark.parametrize("make,cycle", [(franka_cm, lambda cm, n: cm.step(n)), (ur_cm, ur_cycles)],
-                         ids=["franka", "ur"])
+@pytest.mark.parametrize("make,cycle", [(ur_cm, ur_cycles)], ids=["ur"])
 def test_forward_position_controller_moves_the_arm_through_the_box(make, cycle):
     cm = make()
     try:
@@ -79,8 +72,7 @@ def test_forward_position_controller_moves_the_arm_through_the_box(make, cycle):
     assert not box.alive() and sys_.box is None                   # cleanup stopped the box it owned
 
 
-@pytest.mark.parametrize("make,cycle", [(franka_cm, lambda cm, n: cm.step(n)), (ur_cm, ur_cycles)],
-                         ids=["franka", "ur"])
+@pytest.mark.parametrize("make,cycle", [(ur_cm, ur_cycles)], ids=["ur"])
 def test_killed_box_makes_read_fail_and_the_manager_deactivates_the_controllers(make, cycle):
     cm = make(read_timeout=0.05)
     try:
@@ -97,43 +89,6 @@ def test_killed_box_makes_read_fail_and_the_manager_deactivates_the_controllers(
         assert any("went into error" in r.msg or "resulted in an error" in r.msg for r in cm.log.records)
     finally:
         cm.shutdown()
-
-
-def test_franka_reflex_fails_read_and_needs_explicit_recovery():
-    cm = franka_cm(max_missed=5)
-    try:
-        sys_ = system(cm)
-        cm.step(10)
-        time.sleep(0.2)                              # the loop stalls: > 5 states unanswered
-        cm.step(1)
-        assert controller_states(cm)["forward_position_controller"] == INACTIVE
-        assert "communication_constraints_violation" in sys_.last_error
-        # activation is refused while the box is in reflex, whatever the manager tries
-        assert cm.set_hardware_component_state("UR5e", "active") != 0
-        assert cm.rm.components["UR5e"].wrapper.state != ACTIVE
-        assert sys_.automatic_error_recovery() == []
-        assert cm.set_hardware_component_state("UR5e", "active") == 0
-        assert cm.switch_controller(SPAWN, [], strictness=2) == 0
-        cm.step(50)
-        assert controller_states(cm)["forward_position_controller"] == ACTIVE
-        assert sys_.robot.errors == 0
-    finally:
-        cm.shutdown()
-
-
-def test_description_with_the_gripper_joint_is_refused_with_the_fix():
-    from robocourse.control.hardware.info import URDFError
-    from robocourse.sim.robots import urdf_text
-
-    with pytest.raises(URDFError, match="FrankaStyleSystem has no command interface 'velocity'"):
-        ControllerManager(urdf_text("ur5e", plugin="robocourse/FrankaStyleSystem"))
-    five = re.sub(r'<joint name="wrist_3_joint">.*?</joint>', "",
-                  drivers.arm_urdf("robocourse/FrankaStyleSystem"), count=1, flags=re.S)
-    log = LogSink(log_to_stderr=False)
-    with pytest.raises(RuntimeError, match="Failed to initialize hardware 'UR5e'"):
-        ControllerManager(five, log=log)
-    msgs = " ".join(r.msg for r in log.records)
-    assert "serves exactly the six arm joints" in msgs and "got ['shoulder_pan_joint'" in msgs and "arm_urdf" in msgs
 
 
 def test_bad_param_is_refused_with_the_rule():
@@ -172,14 +127,12 @@ def test_box_dies_with_its_parent():
         parent.stdin.close()
 
 
-@pytest.mark.parametrize("plugin,cycle", [("robocourse/FrankaStyleSystem", lambda cm, n: cm.step(n)),
-                                          ("robocourse/URStyleSystem", ur_cycles)], ids=["franka", "ur"])
+@pytest.mark.parametrize("plugin,cycle", [("robocourse/URStyleSystem", ur_cycles)], ids=["ur"])
 def test_joint_trajectory_controller_runs_a_trajectory_through_the_box(plugin, cycle):
     from robocourse.msgs.builtin_interfaces import Duration
     from robocourse.msgs.trajectory_msgs import JointTrajectory, JointTrajectoryPoint
 
-    params = {"max_missed": 100_000, "read_timeout": 2.0} if "Franka" in plugin else {"read_timeout": 2.0,
-                                                                                          "keepalive": 2.0}
+    params = {"read_timeout": 2.0, "keepalive": 2.0}
     urdf = drivers.arm_urdf(plugin, params, command_interfaces=("position",))
     cm = bringup(urdf=urdf, param_file=drivers.CONTROLLERS_YAML,
                  spawn=["joint_state_broadcaster", "joint_trajectory_controller"])

@@ -90,6 +90,7 @@ MANIFEST: tuple[Rule, ...] = (
     # tests: the library's unit tests and notebook execution, not the instructor's
     Rule("exclude", "tests/test_release.py", "builds an edition from solutions/"),
     Rule("exclude", "tests/banks/**", "answer banks: their correct answers are solutions"),
+    Rule("exclude", "tests/banks_pending/**", "answer banks not yet in the suite: their correct answers are solutions"),
     Rule("exclude", "tests/test_banks.py", "grades the answer banks against solutions/"),
     Rule("exclude", "tests/test_notebooks_clean.py", "committed notebooks are stripped; a student's saved work is not"),
     Rule("exclude", "tests/test_chapters_under_load.py",

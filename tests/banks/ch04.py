@@ -337,10 +337,10 @@ slew_rate_controller:
 ''', score=3.25, property="claims only its joints' position interfaces", says="beside another controller"),
         Answer("joints sorted by name", replace=[('[f"{j}/position" for j in self.params.joints]',
                                                   '[f"{j}/position" for j in sorted(self.params.joints)]')],
-               score=1.5, property="interfaces in the order of the joints parameter",
+               score=2.5, property="interfaces in the order of the joints parameter",
                says="in the order of the 'joints' parameter"),
         Answer("no slew: jumps to the target", replace=[(
-            "        np.clip(self.step, -limit, limit, out=self.step)\n", "")], score=3.25,
+            "        np.clip(self.step, -limit, limit, out=self.step)\n", "")], score=2.75,
             property="moves at most max_velocity * period per update", says="by at most max_velocity * period"),
         Answer("a fixed 10 ms step", replace=[("        limit = self.params.max_velocity * period\n",
                                                "        limit = self.params.max_velocity * 0.01\n")], score=3.5,

@@ -1039,7 +1039,8 @@ NAMES = List(Str(max_len=200), max_len=64)
 CTRL_SCHEMA = Dict(optional={
     "load": MESSAGE, "switch": Int(), "switch_message": MESSAGE, "claimed_commands": NAMES, "claimed_states": NAMES,
     "errors": List(MESSAGE, max_len=20), "switch_alone": Int(), "switch_alone_message": MESSAGE, "hold": ROWS,
-    "hold_commands": ROWS, "track": ROWS, "bad_input": ROWS, "state_after_bad_input": Str(max_len=40),
+    "hold_commands": ROWS, "track": ROWS, "bad_input": ROWS, "bad_input_control": ROWS,
+    "state_after_bad_input": Str(max_len=40),
     "reswitch": Int(), "reactivated": ROWS, "slow_load": MESSAGE, "slow_start": Array((None,), finite=False),
     "slow": ROWS, "alloc": ALLOC})
 
@@ -1115,6 +1116,9 @@ def _ctrl_slew(inputs, out):
                           f"({inputs['max_velocity']:g} rad/s x 0.01 s) and stops on it. Target {inputs['target1']}, "
                           f"cycle {k + 1}: commands {_row([got], 0)}, expected {_row([want], 0)} from the previous "
                           "command")
+    if _rows_differ(rows[-1:], [inputs["target1"]]) is not None:
+        raise CheckFailed(f"after {len(rows) / 100:g} s the commands are {_row(rows, -1)}, not on the target "
+                          f"{inputs['target1']} they slew toward (each joint's command goes to its own target)")
     return f"slews toward the newest target at {inputs['max_velocity']:g} rad/s"
 
 
@@ -1123,17 +1127,16 @@ def _ctrl_bad_input(inputs, out):
     rows, track = out.get("bad_input"), out.get("track")
     if rows is None or track is None or len(track) == 0:
         raise CheckFailed("the controller did not run long enough to be sent bad messages")
-    target, prev = np.asarray(inputs["target2"], dtype=float), np.asarray(track[-1], dtype=float)
-    for k, row in enumerate(np.asarray(rows, dtype=float)):
-        # whatever its speed, a controller that ignores the bad messages only ever closes in on target2
-        away = ~np.isfinite(row) | (np.abs(row - target) > np.abs(prev - target) + 1e-12) | (
-            np.sign(row - target) * np.sign(prev - target) < 0)
-        if away.any() or out.get("state_after_bad_input") != "active":
-            raise CheckFailed(f"a message with a NaN, or with {len(inputs['joints']) + 1} values, must be ignored: the "
-                              f"controller keeps its last valid target {inputs['target2']} and stays active (it is "
-                              f"'{out.get('state_after_bad_input')}'). Cycle {k + 1} after the new target: commands "
-                              f"{_row([row], 0)}, moving away from that target or not a number")
-        prev = row
+    control = out.get("bad_input_control")
+    d = _rows_differ(rows, control) if control is not None else (0, math.inf)
+    if d is not None or not np.isfinite(np.asarray(rows, dtype=float)).all() \
+            or out.get("state_after_bad_input") != "active":
+        k = d[0] if d else 0
+        raise CheckFailed(f"a message with a NaN, or with {len(inputs['joints']) + 1} values, must be ignored: the "
+                          f"controller keeps its last valid target {inputs['target2']} and stays active (it is "
+                          f"'{out.get('state_after_bad_input')}'). Cycle {k + 1} after the new target: commands "
+                          f"{_row(rows, k)}, while the same controller sent no bad message commanded "
+                          f"{_row(control, k) if control is not None else 'nothing (it did not come up)'}")
     return "NaN and wrong-size messages ignored"
 
 
@@ -1154,19 +1157,25 @@ def _ctrl_period(inputs, out):
     rows, ref = out.get("slow"), _ctrl_ref(inputs)["slow"]
     if rows is None:
         raise CheckFailed(f"with update_rate: {inputs['slow_rate']} the controller could not be activated")
-    ref = np.asarray(ref)
-    updates = {k for k in range(len(ref)) if not np.array_equal(ref[k], ref[k - 1] if k else ref[k] * np.nan)}
-    start = _start_of(out["slow_start"], [inputs["initial"][j] for j in inputs["joints"]])
-    # from the answer's own first update on: where it started is the activation sub-test's business
-    first = min(updates)
-    broke = slew_break(rows[first + 1:], rows[first], inputs["target1"], inputs["max_velocity"] / inputs["slow_rate"],
-                       {k - first - 1 for k in updates if k > first})
-    if broke is not None or (first and _rows_differ(rows[:first], [start] * first) is not None):
-        k, got, want = broke if broke else (-1 - first, rows[0], start)
-        raise CheckFailed(f"Use the period argument, not a fixed step: with update_rate: {inputs['slow_rate']} under a "
-                          f"100 Hz manager, update() runs every {100 // inputs['slow_rate']} cycles with period "
-                          f"{1 / inputs['slow_rate']:g} s. Cycle {k + first + 2}: commands {_row([got], 0)}, expected "
-                          f"{_row([want], 0)}")
+    step = inputs["max_velocity"] / inputs["slow_rate"]
+    rows = np.asarray(rows, dtype=float)
+    moves = np.abs(np.diff(rows, axis=0))      # from its first update on: where it started is the activation's business
+    if not (moves > 1e-12).any():
+        raise CheckFailed(f"with update_rate: {inputs['slow_rate']} and a target {inputs['target1']} the commands "
+                          f"never moved after the first update: {_row(rows, 0)}")
+    for j, name in enumerate(inputs["joints"]):
+        steps = moves[:, j][moves[:, j] > 1e-12]
+        # a slew at max_velocity: every step the same, period x max_velocity, but the last one (which lands)
+        if len(steps) and (np.any(np.abs(steps[:-1] - step) > 1e-9) or steps[-1] > step + 1e-9):
+            raise CheckFailed(f"Use the period argument, not a fixed step: with update_rate: {inputs['slow_rate']} under "
+                              f"a 100 Hz manager, update() runs every {100 // inputs['slow_rate']} cycles with period "
+                              f"{1 / inputs['slow_rate']:g} s, so {name} moves {step:.4g} rad per update; it moved "
+                              f"{np.round(steps[:4], 5).tolist()} rad in its first updates")
+    updates = int(np.sum(moves.max(axis=1) > 1e-12))
+    ref_updates = int(np.sum(np.abs(np.diff(np.asarray(ref, dtype=float), axis=0)).max(axis=1) > 1e-12))
+    if updates > ref_updates + 1:
+        raise CheckFailed(f"with update_rate: {inputs['slow_rate']} the commands changed in {updates} of {len(rows)} "
+                          f"cycles: update() runs every {100 // inputs['slow_rate']} cycles of a 100 Hz manager")
     return "uses the period it is given"
 
 

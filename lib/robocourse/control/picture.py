@@ -31,6 +31,12 @@ class SystemPicture:
     def _repr_svg_(self) -> str:
         return self.svg
 
+    def __repr__(self) -> str:          # what a text-only view shows instead of the drawing
+        import re
+
+        size = re.search(r'width="(\d+)" height="(\d+)"', self.svg)
+        return f"<picture: SVG {size.group(1)} x {size.group(2)} px>" if size else "<picture: SVG>"
+
     def save(self, path) -> None:
         with open(path, "w") as f:
             f.write(self.svg)

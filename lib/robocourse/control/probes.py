@@ -411,16 +411,18 @@ def controller_scenario(inputs, cls) -> dict:
     hold = record(20, lambda m, js: _positions(m, js) + _commands(m, js))   # 1. activated, no target: nothing moves
     out["hold"] = [row[:len(joints)] for row in hold]
     out["hold_commands"] = [row[len(joints):] for row in hold]
-    pub.publish(Float64MultiArray(data=list(inputs["target1"])))
-    out["track"] = record(150)                                  # 2. slew toward the target at max_velocity
-    pub.publish(Float64MultiArray(data=list(inputs["target2"])))
-    bad = record(8)
-    pub.publish(Float64MultiArray(data=[math.nan] + list(inputs["target1"][1:])))   # 3. a NaN: ignored
-    bad += record(8)
-    pub.publish(Float64MultiArray(data=list(inputs["target1"]) + [0.0]))              # 4. wrong size: ignored
-    bad += record(30)
-    out["bad_input"] = bad
+    out["track"], out["bad_input"] = _ctrl_targets(cm, pub, inputs, bad=True)   # 2. slew; 3./4. NaN, wrong size
     out["state_after_bad_input"] = cm.controllers[CTRL_NAME].state.label
+    # the same controller, the same targets, no bad message: what "ignored" must look like, for this code
+    twin = _ctrl_manager(inputs)
+    if _load(twin, CTRL_NAME, cls, {}, "load") is not None:
+        if out["switch"] == 0:
+            twin.load_controller("other")
+            twin.configure_controller("other")
+        if twin.switch_controller([CTRL_NAME] + (["other"] if out["switch"] == 0 else []), [], STRICT) == 0:
+            _record(twin, CTRL_NAME, joints, 20)
+            out["bad_input_control"] = _ctrl_targets(twin, _publisher(twin, f"/{CTRL_NAME}/commands",
+                                                                      Float64MultiArray), inputs, bad=False)[1]
     # 5. deactivated, another controller moves the joints, activated again: it must start from there
     cm.switch_controller(["mover"], [CTRL_NAME], STRICT)
     cm.controllers["mover"].c.set_command(inputs["moved"])
@@ -457,6 +459,30 @@ def controller_scenario(inputs, cls) -> dict:
 
     out["alloc"] = allocation_record(build)
     return plain(out)
+
+
+def _ctrl_targets(cm, pub, inputs, bad: bool):
+    """Target 1 long enough to reach it, then target 2 (with ``bad``: a NaN and a wrong-size message after it);
+    the commands per cycle of each part."""
+    from robocourse.msgs.std_msgs import Float64MultiArray
+
+    joints = inputs["joints"]
+    pub.publish(Float64MultiArray(data=list(inputs["target1"])))
+    track = _record(cm, CTRL_NAME, joints, TRACK_CYCLES)
+    pub.publish(Float64MultiArray(data=list(inputs["target2"])))
+    rows = _record(cm, CTRL_NAME, joints, 8)
+    if bad:
+        pub.publish(Float64MultiArray(data=[math.nan] + list(inputs["target1"][1:])))
+    rows += _record(cm, CTRL_NAME, joints, 8)
+    if bad:
+        pub.publish(Float64MultiArray(data=list(inputs["target1"]) + [0.0]))
+    rows += _record(cm, CTRL_NAME, joints, 30)
+    return track, rows
+
+
+#: cycles at 100 Hz to follow target 1: enough to reach it even from 0 rad, where a controller that forgot the
+#: state starts (a target is at most 1.6 rad from 0; max_velocity is at least 0.3 rad/s)
+TRACK_CYCLES = 560
 
 
 def controller_probe(inputs, SlewRateController):

@@ -1,7 +1,7 @@
 """Entry point of a box process: ``python -m robocourse.drivers.box {franka|ur} [options]``.
 
-Started by :class:`robocourse.drivers.process.BoxProcess`; prints ``READY name=port ...`` (the UR
-box: ``READY host=127.0.0.x rtde=30004 ...``) once its sockets are bound, then runs until
+Started by :class:`robocourse.drivers.process.BoxProcess`; prints ``READY host=127.0.0.x
+name=port ...`` once its sockets are bound, then runs until
 SIGTERM, or until its parent is gone. A failure to start (a port in use) exits with code 2 and
 one line on stderr naming the port and the fix.
 """
@@ -16,19 +16,17 @@ import sys
 import threading
 import time
 
-from .franka_protocol import DEFAULT_MAX_MISSED
+from .franka_wire import MAX_LOST_IN_ROW, VERSION
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m robocourse.drivers.box")
     p.add_argument("kind", choices=("franka", "ur"))
-    p.add_argument("--host", default=None,
-                   help="franka: address (default 127.0.0.1); ur: address (default: a free 127.0.0.x)")
-    p.add_argument("--port", type=int, default=0, help="franka: UDP port (0 = free)")
-    p.add_argument("--period-us", type=int, default=1000, help="franka: state period in us")
-    p.add_argument("--max-missed", type=int, default=DEFAULT_MAX_MISSED, help="franka: missed ticks in a row before the reflex")
-    p.add_argument("--client-timeout", type=int, default=100,
-                   help="franka: ticks of silence after which another client may take the slot")
+    p.add_argument("--host", default=None, help="address to bind (default: a free 127.0.0.x)")
+    p.add_argument("--max-lost", type=int, default=MAX_LOST_IN_ROW,
+                   help="franka: lost command packets in a row before the communication reflex (the robot: 20)")
+    p.add_argument("--server-version", type=int, default=VERSION,
+                   help="franka: the robot server version the box claims (libfranka 0.21 needs 10)")
     p.add_argument("--power-off", action="store_true", help="ur: start powered off (dashboard: power on, brake release)")
     p.add_argument("--unlock-delay", type=float, default=None,
                    help="ur: seconds before a protective stop may be unlocked (UR: 5)")
@@ -53,10 +51,9 @@ def main(argv=None) -> int:
         if a.kind == "franka":
             from .franka_box import FrankaBox
 
-            box = FrankaBox(port=a.port, host=a.host or "127.0.0.1", period_us=a.period_us, max_missed=a.max_missed,
-                            initial_positions=initial, physics=not a.no_physics,
-                            client_timeout=a.client_timeout)
-            ready = f"READY udp={box.port}"
+            box = FrankaBox(host=a.host, initial_positions=initial, physics=not a.no_physics, max_lost=a.max_lost,
+                            server_version=a.server_version)
+            ready = f"READY host={box.host} command={box.command_port} udp={box.udp_port} monitor={box.monitor_port}"
         else:
             from .ur_box import PORTS, URBox, open_listeners
 
@@ -71,8 +68,8 @@ def main(argv=None) -> int:
                         powered=not a.power_off, unlock_delay=a.unlock_delay)
             ready = "READY host=" + host + "".join(f" {k}={v}" for k, v in PORTS.items())
     except OSError as exc:
-        print(f"cannot bind {a.kind} box on {a.host} (port {a.port}): {exc}; "
-              "pick another port or pass 0 for a free one", file=sys.stderr)
+        print(f"cannot bind the {a.kind} box on {a.host or 'a free 127.0.0.x'}: {exc}; stop the box using it, "
+              "or pass no host to get a free loopback address", file=sys.stderr)
         return 2
     except ValueError as exc:
         print(f"cannot start the {a.kind} box: {exc}", file=sys.stderr)
@@ -86,7 +83,7 @@ def main(argv=None) -> int:
     if a.rt:       # settings first (prefaulting the heap takes a while), then READY: a client never waits on them
         from robocourse.rt import settings
 
-        with settings.realtime(quiet=True, heap_size=16 * 1024 * 1024):
+        with settings.realtime(quiet=True, heap_size=4 * 1024 * 1024):
             print(ready, flush=True)
             box.run()
     else:

@@ -42,9 +42,9 @@ def _die_with_parent() -> None:  # runs in the child between fork and exec
 class BoxProcess:
     """A box process started from ``python -m robocourse.drivers.box KIND ARGS``.
 
-    ``ports``: {"udp": 41234} (Franka style) or {"rtde": 30004, "dashboard": 29999, ...} (UR
-    style) once started; ``host``: the address it listens on (UR style: its own 127.0.0.x; the
-    others 127.0.0.1). Use as a context manager or call :meth:`stop`.
+    ``ports``: {"command": 1337, "udp": ..., "monitor": ...} (Franka) or {"rtde": 30004,
+    "dashboard": 29999, ...} (UR style) once started; ``host``: the address it listens on (each
+    box its own 127.0.0.x). Use as a context manager or call :meth:`stop`.
     """
 
     def __init__(self, kind: str, args: list[str], startup_timeout: float = 60.0):

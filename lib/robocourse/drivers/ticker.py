@@ -15,11 +15,17 @@ import time
 
 class TickingBox:
     period_ns: int = 1_000_000
+    #: True: a tick that starts late (by more than a tenth of a period) re-phases the schedule,
+    #: so the next tick comes a full period after it (the client always gets a whole period to
+    #: answer; a starved box runs slower instead: ``box_late_ticks`` counts these). False: keep
+    #: the absolute grid (the next tick may follow a late one at once).
+    rephase: bool = False
 
     def __init__(self):
         self.counters = collections.Counter()
         self.running = True
         self.t0_ns = time.monotonic_ns()
+        self.tick_index = 0
 
     def sockets(self) -> list:
         raise NotImplementedError
@@ -43,9 +49,17 @@ class TickingBox:
                     self.on_readable(s)
                 if left <= 0:
                     break
+            started = time.monotonic_ns()
             self.tick()
+            self.tick_index += 1
+            if self.rephase and started - next_t > period // 10:
+                self.counters["box_late_ticks"] += 1
+                next_t = started
             next_t += period
             behind = time.monotonic_ns() - next_t
             if behind > 0:
                 self.counters["box_overruns"] += 1
-                next_t += (behind // period + 1) * period
+                skipped = behind // period + 1
+                self.counters["box_ticks_skipped"] += skipped
+                self.tick_index += skipped
+                next_t += skipped * period

@@ -17,10 +17,10 @@ from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
-ROBOTS = ("rrbot", "ur5e")
+ROBOTS = ("rrbot", "ur5e", "fr3")
 """Names accepted by ``urdf_path``, ``urdf_text``, ``joint_limits`` and ``RobotSim``."""
 
-VARIANTS = {"rrbot": ("modular_fts",), "ur5e": ()}
+VARIANTS = {"rrbot": ("modular_fts",), "ur5e": (), "fr3": ()}
 """Other ``<ros2_control>`` wirings of the same robot, for ``urdf_text(name, variant=...)``:
 ``"modular_fts"`` is RRBot as one actuator per joint plus an external force/torque sensor
 (ros2_control_demos' examples 6 and 5), from ``rrbot_modular_fts.ros2_control.xml``."""

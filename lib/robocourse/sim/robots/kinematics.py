@@ -28,7 +28,7 @@ class Kinematics:
         self.model = mujoco.MjModel.from_xml_path(str(urdf_path(name)))
         self._data = mujoco.MjData(self.model)
         m = self.model
-        self.tip = tip or {"ur5e": "tool0", "rrbot": "tool_link"}[name]
+        self.tip = tip or {"ur5e": "tool0", "rrbot": "tool_link", "fr3": "link8"}[name]
         self._tip_id = self._body(self.tip)
         chain, b = [], self._tip_id
         while b != 0:

@@ -87,6 +87,7 @@ class _Spec:
     tcp_body: str
     gains: Mapping[str, ServoGains]
     finger_bodies: tuple[str, ...] = ()
+    armature: Mapping[str, float] | None = None   # rotor inertia (kg m^2) added per joint
 
 
 _BIG, _WRIST = ServoGains(kp=800.0, kd=80.0, kv=150.0), ServoGains(kp=80.0, kd=4.0, kv=6.0)
@@ -98,6 +99,15 @@ _SPECS = {
                          "wrist_1_joint": _WRIST, "wrist_2_joint": _WRIST, "wrist_3_joint": _WRIST,
                          "finger_joint": ServoGains(kp=2000.0, kd=100.0, kv=100.0)},
                   finger_bodies=("left_finger", "right_finger")),
+    # FR3: kp = libfranka's examples' default joint impedance (setDefaultBehavior: 3000, 3000, 3000,
+    # 2500, 2500, 2000, 2000 N m/rad); kd and the armature are ours (Franka publishes neither the
+    # robot's internal damping nor its reflected rotor inertia): the armature (0.3 / 0.1 kg m^2)
+    # keeps those stiffnesses stable at a 1 ms physics step, kd damps them to about 0.7 of critical
+    "fr3": _Spec(ft_body=None, tcp_body="link8",
+                 gains={f"fr3_joint{i + 1}": ServoGains(kp=kp, kd=kd, kv=kv) for i, (kp, kd, kv) in enumerate(
+                     [(3000.0, 60.0, 60.0)] * 3 + [(2500.0, 55.0, 55.0), (2500.0, 25.0, 25.0),
+                                                   (2000.0, 22.0, 22.0), (2000.0, 20.0, 20.0)])},
+                 armature={**{f"fr3_joint{i}": 0.3 for i in (1, 2, 3, 4)}, **{f"fr3_joint{i}": 0.1 for i in (5, 6, 7)}}),
 }
 
 _ROBOT_CONTYPE, _ROBOT_CONAFFINITY = 1, 2  # robot geoms touch the environment, never each other
@@ -160,6 +170,8 @@ class RobotSim:
         self._stiff = [2 * float(timestep), 1.0]
         for eq in spec.equalities:
             eq.solref, eq.solimp = self._stiff, [0.95, 0.99, 0.001, 0.5, 2.0]
+        for j, a in (spec_info.armature or {}).items():
+            spec.joint(j).armature = float(a)
         for body in spec.bodies:  # name geoms "<link>/<k>" so drawings and contacts name the link
             for k, geom in enumerate(body.geoms):
                 geom.name = f"{body.name}/{k}"
