@@ -106,8 +106,11 @@ def _run_scratch(tmp_path: Path, *args: str) -> list[list[str]]:
     log = tmp_path / "log.txt"
     env = {k: v for k, v in os.environ.items()
            if not k.startswith(("PYTEST_XDIST_", "PYTEST_CURRENT_TEST", "PYTEST_ADDOPTS"))}
-    env.update(SCHED_LOG=str(log), SCHED_RUNNING=str(running))
-    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *args],
+    # only the plugin under test: the suite's others (nbmake's imports alone take seconds per
+    # process, and an xdist run starts three) are not what this checks
+    env.update(SCHED_LOG=str(log), SCHED_RUNNING=str(running), PYTEST_DISABLE_PLUGIN_AUTOLOAD="1")
+    plugins = ["-p", "xdist.plugin", "-p", "xdist.looponfail"] if "-n" in args else []
+    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *plugins, *args],
                           cwd=project, env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     assert "21 passed" in done.stdout, done.stdout[-2000:]
