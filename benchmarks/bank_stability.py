@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib.util
+import os
 import statistics
 import sys
 import time
@@ -53,6 +54,7 @@ def main(argv=None) -> int:
     conditions = ["quiet"] + ([] if args.no_load else ["loaded"])
     rows: dict[str, dict] = {}
     seconds: dict[str, list[float]] = {c: [] for c in conditions}
+    loadavg: dict[str, list[float]] = {c: [] for c in conditions}  # the shared machine's 1-min load after each run
     for path in paths:
         exercises = load_bank(path)
         for ex in exercises:
@@ -65,10 +67,12 @@ def main(argv=None) -> int:
                     verdicts = grade_bank(exercises, solutions_dir=ROOT / "solutions", repeats=1,
                                           first_run=run + (1000 if condition == "loaded" else 0))
                 seconds[condition].append(time.monotonic() - start)
+                loadavg[condition].append(os.getloadavg()[0])
                 for v in verdicts:
                     rows[v.check][condition].append(v)
                 bad = [v for v in verdicts if not v.ok]
                 print(f"{path.stem} run {run + 1}/{args.repeats} {condition:<6} {seconds[condition][-1]:6.1f} s  "
+                      f"load avg {loadavg[condition][-1]:4.1f}  "
                       f"{len(verdicts) - len(bad)}/{len(verdicts)} as expected"
                       + "".join(f"\n    UNEXPECTED {v.check} / {v.answer}: {'; '.join(v.problems)}" for v in bad[:5]),
                       flush=True)
@@ -92,7 +96,8 @@ def main(argv=None) -> int:
     for c in conditions:
         s = seconds[c]
         print(f"{c:<7} seconds per bank run: median {statistics.median(s):.1f} (min {min(s):.1f}, max {max(s):.1f}) "
-              f"over {len(s)} runs")
+              f"over {len(s)} runs; 1-min load average after a run: median {statistics.median(loadavg[c]):.1f} "
+              f"(max {max(loadavg[c]):.1f}) on {os.cpu_count()} CPUs")
     if "loaded" in conditions:
         print(f"loaded / quiet: {statistics.median(seconds['loaded']) / statistics.median(seconds['quiet']):.2f}x")
     return 0

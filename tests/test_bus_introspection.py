@@ -100,6 +100,7 @@ def test_doctor_and_graph_picture_mark_incompatible_qos(capsys):
     assert ("/imu", "/ns/listener", "incompatible", "QoS RELIABILITY") in pic.edges
     assert ("/talker", "/cmd_vel", "pub", "") in pic.edges
     assert "QoS RELIABILITY" in svg and "stroke-dasharray" in svg
+    assert repr(pic) == "<rqt_graph picture: 3 nodes, 2 topics, 4 arrows (SVG)>"   # a saved notebook's text: no address
 
 
 def test_cli_calls_wait_on_an_executor_another_thread_spins():

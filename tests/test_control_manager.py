@@ -820,9 +820,12 @@ def test_realtime_run_on_a_sim_time_context_advances_the_sim_clock_with_the_cycl
     assert cm.context.sim.ns == round(cm.time * 1e9)
     assert abs(cm.time - t_before - 0.3) < 1e-6
     assert node.get_clock().now().nanoseconds == round(cm.time * 1e9)
-    # the timer fired during the run on the simulated clock (every 50 ms of cycle time)
-    during = [t for t in ticks if t > round(t_before * 1e9)]
-    assert during and all(t % 50_000_000 == 0 for t in during)
+    # the timer fired during the run, on the simulated clock: its callbacks run on the executor's own
+    # thread (as in ros2_control_node), so now() there may be a cycle or more past the timer's due time
+    # on a loaded machine, but never outside the run's simulated span (a wall-clock timer would read ~1e18 ns)
+    start, end = round(t_before * 1e9), round(cm.time * 1e9)
+    during = [t for t in ticks if t > start]
+    assert during and all(start + 50_000_000 <= t <= end for t in during) and during == sorted(during)
 
 
 def test_orderly_shutdown_logs_info_not_error():

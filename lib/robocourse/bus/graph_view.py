@@ -24,6 +24,9 @@ class GraphPicture:
     def _repr_svg_(self):
         return self.svg
 
+    def __repr__(self) -> str:          # a text-only view (a saved notebook's text, a terminal): what it shows
+        return f"<rqt_graph picture: {len(self.nodes)} nodes, {len(self.topics)} topics, {len(self.edges)} arrows (SVG)>"
+
     def save(self, path) -> str:
         with open(path, "w") as f:
             f.write(self.svg)
