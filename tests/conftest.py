@@ -105,7 +105,7 @@ def _notebook_is_serial(path: Path, seen: dict = {}) -> bool:  # noqa: B006 - a 
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
     """Notebook time limit and serial marks (here, not in ``pytest_itemcollected``: that hook only
-    reaches this conftest for items under tests/, and the solution notebooks live in solutions/);
+    reaches this conftest for items under tests/, and the notebooks of testpaths live elsewhere);
     then longest units first, serial tests last."""
     for item in items:
         path = Path(str(getattr(item, "path", "")))
