@@ -74,7 +74,10 @@ def main(argv=None) -> int:
                 print(f"{path.stem} run {run + 1}/{args.repeats} {condition:<6} {seconds[condition][-1]:6.1f} s  "
                       f"load avg {loadavg[condition][-1]:4.1f}  "
                       f"{len(verdicts) - len(bad)}/{len(verdicts)} as expected"
-                      + "".join(f"\n    UNEXPECTED {v.check} / {v.answer}: {'; '.join(v.problems)}" for v in bad[:5]),
+                      + "".join(f"\n    UNEXPECTED {v.check} / {v.answer}: {'; '.join(v.problems)}"
+                                + "".join(f"\n        {line.strip()}" for line in v.feedback.splitlines()
+                                          if line.strip().startswith("[FAIL]") and " sub-tests failed" not in line)
+                                for v in bad[:5]),
                       flush=True)
     print()
     head = f"{'exercise':<22}{'wrong':>6}{'right':>6}"
