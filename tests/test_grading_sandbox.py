@@ -187,16 +187,70 @@ def test_cgroups_left_by_a_killed_grader_are_swept_and_live_ones_kept():
                 d.rmdir()
 
 
+def test_a_timing_submission_runs_alone_and_one_waiting_goes_before_later_plain_ones():
+    """The CPU gate behind 'a timing check gets the machine to itself': a spinner beside an honest timing
+    check slowed it from 9/9 to 6/9 (issue 26). Plain A runs; timing T waits for A; plain B, asking after T,
+    waits for T; T holds every allowed CPU, the plain ones none in particular."""
+    import time
+
+    from robocourse.grading import resources
+
+    gate = resources.CpuGate()
+    log: list = []
+    release = {k: threading.Event() for k in "ATB"}
+    started = {k: threading.Event() for k in "ATB"}
+
+    def run(name, exclusive):
+        with gate.hold(exclusive) as cpus:
+            log.append(("start", name, cpus))
+            started[name].set()
+            release[name].wait(10)
+        log.append(("end", name))
+
+    def until(cond):
+        deadline = time.monotonic() + 10
+        while not cond():
+            assert time.monotonic() < deadline, log
+            time.sleep(0.01)
+
+    threads = {"A": threading.Thread(target=run, args=("A", False))}
+    threads["A"].start()
+    started["A"].wait(10)
+    threads["T"] = threading.Thread(target=run, args=("T", True))
+    threads["T"].start()
+    until(lambda: gate._waiting == 1)
+    threads["B"] = threading.Thread(target=run, args=("B", False))
+    threads["B"].start()
+    time.sleep(0.2)
+    assert [e[:2] for e in log] == [("start", "A")]  # neither T nor B beside A's run... B waits behind T
+    release["A"].set()
+    started["T"].wait(10)
+    time.sleep(0.2)
+    assert not started["B"].is_set()  # nothing beside the timing submission
+    release["T"].set()
+    release["B"].set()
+    for t in threads.values():
+        t.join(10)
+    assert [e[:2] for e in log] == [("start", "A"), ("end", "A"), ("start", "T"), ("end", "T"), ("start", "B"),
+                                    ("end", "B")]
+    assert log[2][2] == tuple(resources.allowed_cpus()) and log[0][2] is None and log[4][2] is None
+
+
 def test_a_cgroup_that_refuses_a_process_falls_back_to_polling_before_the_submission_starts(monkeypatch):
     from robocourse.grading import resources
 
     if resources.mode() != "cgroup-v1":
         pytest.skip(f"cgroup v1 is not writable here (mode {resources.mode()})")
 
-    def refuse(self):
-        raise PermissionError(13, "Permission denied")
+    real = resources.Path.write_text
 
-    monkeypatch.setattr(resources.Box, "join", refuse)
+    def refuse_cpuset(path, text, *args, **kwargs):
+        if path.name == "cgroup.procs" and "cpuset" in path.parts:
+            raise OSError(28, "No space left on device", str(path))
+        return real(path, text, *args, **kwargs)
+
+    monkeypatch.setattr(resources.Path, "write_text", refuse_cpuset)
     with resources.Box(512, 64, None, mode="cgroup-v1") as box:
         assert box.mode == "polling" and box.dirs == {}
-        assert "the cgroup refused a process" in box.describe()
+        # the parent saw the errno and names the controller (preexec_fn would have said only "an exception")
+        assert "the cgroup refused a process (its cpuset cgroup: No space left on device)" in box.describe()

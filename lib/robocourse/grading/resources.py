@@ -228,14 +228,14 @@ class Box:
                 self.__exit__()
                 self.mode, self.fallback = "polling", f"the cgroup could not be made ({exc.strerror or exc})"
             else:
-                # a cgroup can exist and still refuse a process (an empty cpuset, a foreign hierarchy): a
-                # throwaway child joins first, so the submission's own start never fails in preexec_fn
-                try:
-                    subprocess.run(["true"], preexec_fn=self.join, check=True, timeout=10,
-                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-                except (OSError, subprocess.SubprocessError) as exc:
+                # a cgroup can exist and still refuse a process (an empty cpuset, a foreign hierarchy, a
+                # real-time task in a cpu cgroup without an RT budget): a parked child, started as the
+                # submission will be (at SCHED_OTHER), is put in first by this process, which sees the errno
+                # (a failure inside preexec_fn reaches the parent only as "Exception occurred in preexec_fn")
+                refused = self._test_join()
+                if refused:
                     self.__exit__()
-                    self.mode, self.fallback = "polling", f"the cgroup refused a process ({exc})"
+                    self.mode, self.fallback = "polling", f"the cgroup refused a process ({refused})"
         elif self.mode == "cgroup-v2-delegated":
             self.unit = f"robocourse-sub-{uuid.uuid4().hex[:10]}"
         return self
@@ -274,6 +274,31 @@ class Box:
             cmd += ["-p", p]
         return cmd + ["--"] + argv
 
+    def _test_join(self) -> str:
+        """Put a parked child into every cgroup of this box; '' when all took it, else which refused and why."""
+        try:
+            child = subprocess.Popen(["sleep", "30"], preexec_fn=_drop_realtime, stdin=subprocess.DEVNULL,
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        except (OSError, subprocess.SubprocessError) as exc:
+            return f"no test process could start: {exc}"
+        try:
+            self._enter(child.pid)
+        except OSError as exc:
+            return f"its {exc.filename} cgroup: {exc.strerror or exc}"
+        finally:
+            child.kill()
+            child.wait()
+        with contextlib.suppress(OSError):  # the peak read back later is the submission's, not this child's
+            (self.dirs["memory"] / "memory.max_usage_in_bytes").write_text("0")
+        return ""
+
+    def _enter(self, pid: int) -> None:
+        for c, d in self.dirs.items():
+            try:
+                (d / "cgroup.procs").write_text(str(pid))
+            except OSError as exc:
+                raise OSError(exc.errno, exc.strerror, c) from None  # filename: the controller that refused
+
     def join(self) -> None:
         """In the sandbox's first process, before exec (``preexec_fn``): drop any real-time policy, enter the
         cgroups, pin the CPU.
@@ -285,12 +310,8 @@ class Box:
         preexec_fn"). A submission starts at SCHED_OTHER; asking for more inside is the student's code's
         business (refused there, reported, carried on: chapter 1's unprivileged path).
         """
-        if hasattr(os, "sched_setscheduler"):
-            with contextlib.suppress(OSError):  # lowering one's own policy is always allowed
-                os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
-        pid = str(os.getpid())
-        for d in self.dirs.values():
-            (d / "cgroup.procs").write_text(pid)
+        _drop_realtime()
+        self._enter(os.getpid())
         if self.cpus and self.mode == "polling" and hasattr(os, "sched_setaffinity"):
             os.sched_setaffinity(0, set(self.cpus))
 
@@ -335,6 +356,13 @@ class Box:
         share = len(self.cpus) if self.cpus else 1
         return (f"{self.mode}: {self.memory_mb} MB incl. shared memory, {self.max_processes} tasks, {share} CPU(s)"
                 + (f": CPU {cpus} to itself" if cpus else ""))
+
+
+def _drop_realtime() -> None:
+    """SCHED_OTHER for the calling thread (lowering one's own policy is always allowed)."""
+    if hasattr(os, "sched_setscheduler"):
+        with contextlib.suppress(OSError):
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
 
 
 def _v2_unit_path(unit: str) -> Path | None:
