@@ -7,8 +7,10 @@ Parallel runs (``make test`` runs pytest-xdist: ``-n $(TEST_JOBS) --dist loadgro
   module-scoped fixture (a class graded once, a box started once) is built once. A test with its
   own ``@pytest.mark.xdist_group(name)`` is a unit of its own (for long, independent cases of one
   module that can spread over the workers).
-- Units start longest first (the seconds each took in the last run, kept in pytest's cache;
-  before any run, notebooks and modules marked ``slow`` first), so no long unit starts last.
+- Units start longest first (the seconds their tests took in earlier runs here, kept in
+  pytest's cache; in a clean clone, as CI's, the seconds of a full run committed in
+  tests/unit_seconds.json; for tests never timed, notebooks and ``slow`` tests first), so no
+  long unit starts last.
 - ``@pytest.mark.serial`` (or ``pytestmark = pytest.mark.serial`` for a whole module) runs a
   test alone: no other test of this run is running while it runs. Use it for a test that is
   timing-sensitive by nature (a 1 kHz loop with a success-rate threshold, a jitter comparison),
@@ -50,7 +52,12 @@ ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOK_TIMEOUT_S = 240
 
 SERIAL_GROUP = "serial"
-_CACHE_KEY = "robocourse/unit_seconds"
+#: pytest's cache: {test id: [unit, seconds]} of every test that ran here (a partial run updates
+#: only the tests it ran), and {unit: seconds} summed from it
+_CACHE_KEY, _CACHE_UNITS = "robocourse/test_seconds", "robocourse/unit_seconds"
+#: a clean clone's schedule (CI): {unit: seconds} of a full run, committed; refresh it after the
+#: suite changed a lot with ``cp .pytest_cache/v/robocourse/unit_seconds tests/unit_seconds.json``
+_FALLBACK = Path(__file__).resolve().parent / "unit_seconds.json"
 # a notebook that starts chapter 1's CPU load runs alone (it loads the machine on purpose)
 _SERIAL_NOTEBOOK_TEXT = "CpuLoad("
 # the dist modes our scheduler takes over (xdist's default for -n N is "load")
@@ -117,19 +124,32 @@ def pytest_collection_modifyitems(config, items):
 
     cache = getattr(config, "cache", None)
     seconds = cache.get(_CACHE_KEY, {}) if cache is not None else {}
+    try:
+        fallback = json.loads(_FALLBACK.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        fallback = {}
 
     def guess(item) -> float:
         if str(getattr(item, "path", "")).endswith(".ipynb"):
             return 20.0
-        return 10.0 if item.get_closest_marker("slow") else 1.0
+        return 10.0 if item.get_closest_marker("slow") else 0.5
 
-    cost: dict[str, float] = {}
+    # a unit costs what its tests took here (a guess for the ones never run here); a unit none
+    # of whose tests ran here yet costs what the committed fallback says, else the guesses
+    known: dict[str, float] = defaultdict(float)
+    guessed: dict[str, float] = defaultdict(float)
     first_seen: dict[str, int] = {}
     units = {}
     for i, item in enumerate(items):
         unit = units[item] = _item_unit(item)
-        cost.setdefault(unit, seconds.get(unit, guess(item)))
         first_seen.setdefault(unit, i)
+        entry = seconds.get(item.nodeid)
+        if isinstance(entry, list) and len(entry) == 2:
+            known[unit] += float(entry[1])
+        else:
+            guessed[unit] += guess(item)
+    cost = {unit: known[unit] + guessed[unit] if unit in known else fallback.get(unit, guessed[unit])
+            for unit in first_seen}
     # serial tests last; the rest by unit, longest first; order inside a unit kept
     items.sort(key=lambda it: (units[it] == SERIAL_GROUP, -cost[units[it]], first_seen[units[it]]))
 
@@ -252,17 +272,21 @@ def pytest_runtest_logreport(report):
     """Add up the seconds of each unit (under xdist the controller sees every worker's reports)."""
     config = _CONFIG.get("config")
     if config is not None:
-        config._robocourse_seconds[_unit(report.nodeid)] += report.duration
+        config._robocourse_seconds[report.nodeid] += report.duration
 
 
 def pytest_sessionfinish(session, exitstatus):
-    """Remember how long each unit took (the next run starts the longest first)."""
+    """Remember how long each test took (the next run starts the longest units first)."""
     config = session.config
     if getattr(config, "workerinput", None) is not None or getattr(config, "cache", None) is None:
         return
     measured = config._robocourse_seconds
     if not measured:
         return
-    known = dict(config.cache.get(_CACHE_KEY, {}))
-    known.update({unit: round(s, 2) for unit, s in measured.items()})
+    known = {k: v for k, v in config.cache.get(_CACHE_KEY, {}).items() if isinstance(v, list)}
+    known.update({nodeid: [_unit(nodeid), round(s, 3)] for nodeid, s in measured.items()})
     config.cache.set(_CACHE_KEY, known)
+    per_unit: dict[str, float] = defaultdict(float)
+    for unit, s in known.values():
+        per_unit[unit] += s
+    config.cache.set(_CACHE_UNITS, {unit: round(s, 1) for unit, s in sorted(per_unit.items())})

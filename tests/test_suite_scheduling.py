@@ -138,3 +138,34 @@ def test_two_workers_build_each_module_fixture_once_and_run_serial_tests_alone(t
 
 def test_plain_pytest_without_xdist_runs_the_same_suite(tmp_path):
     _check(_run_scratch(tmp_path, "-p", "no:xdist"))
+
+
+def test_a_clean_clone_orders_units_by_the_committed_seconds_and_the_cache_wins_after_a_run(tmp_path):
+    """Without pytest's cache (a clean clone, CI) the committed tests/unit_seconds.json sets the
+    order, longest unit first, serial tests last; after a run the seconds measured here win."""
+    project = tmp_path / "scratch"
+    (project / "tests").mkdir(parents=True)
+    (project / "pytest.ini").write_text(_INI)
+    shutil.copy(HERE / "conftest.py", project / "tests" / "conftest.py")
+    for name in "abc":
+        (project / "tests" / f"test_mod_{name}.py").write_text(
+            f"import time\n\ndef test_one():\n    time.sleep({0.3 if name == 'a' else 0.0})\n")
+    (project / "tests" / "test_serial.py").write_text(
+        "import pytest\npytestmark = pytest.mark.serial\n\ndef test_alone():\n    pass\n")
+    (project / "tests" / "unit_seconds.json").write_text(
+        '{"tests/test_mod_a.py": 1, "tests/test_mod_b.py": 5, "tests/test_mod_c.py": 30, "serial": 99}')
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith(("PYTEST_XDIST_", "PYTEST_CURRENT_TEST", "PYTEST_ADDOPTS"))}
+    env["PYTEST_DISABLE_PLUGIN_AUTOLOAD"] = "1"
+
+    def order(*args):
+        done = subprocess.run([sys.executable, "-m", "pytest", "-q", *args], cwd=project, env=env,
+                              capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+        return [line.split("::")[0].rsplit("/", 1)[-1] for line in done.stdout.splitlines() if "::" in line]
+
+    first = ["test_mod_c.py", "test_mod_b.py", "test_mod_a.py", "test_serial.py"]
+    assert order("--collect-only") == first
+    order()                                     # a run: a took 0.3 s here, b and c ~0
+    after = order("--collect-only")
+    assert after[0] == "test_mod_a.py" and after[-1] == "test_serial.py", after
