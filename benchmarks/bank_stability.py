@@ -37,6 +37,26 @@ def load_bank(path: Path):
     return list(module.EXERCISES)
 
 
+def print_table(rows: dict, conditions: list[str]) -> None:
+    """Per exercise: bank size, the reference's full-score count and the runs with every answer as expected."""
+    head = f"{'exercise':<22}{'wrong':>6}{'right':>6}"
+    for c in conditions:
+        head += f"{'ref full ' + c:>19}{'all as expected':>17}"
+    print(head)
+    for check, row in rows.items():
+        line = f"{check:<22}{row['wrong']:>6}{row['right']:>6}"
+        for c in conditions:
+            ref = [v for v in row[c] if v.answer == "reference"]
+            runs = len(ref)
+            by_run: dict[int, list] = {}
+            for v in row[c]:
+                by_run.setdefault(v.run, []).append(v)
+            clean = sum(all(v.ok for v in vs) for vs in by_run.values())
+            line += f"{f'{sum(v.ok for v in ref)}/{runs}':>19}{f'{clean}/{len(by_run)} runs':>17}"
+        print(line)
+    print(flush=True)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--repeats", type=int, default=20, help="runs per condition (default 20)")
@@ -74,24 +94,15 @@ def main(argv=None) -> int:
                 print(f"{path.stem} run {run + 1}/{args.repeats} {condition:<6} {seconds[condition][-1]:6.1f} s  "
                       f"load avg {loadavg[condition][-1]:4.1f}  "
                       f"{len(verdicts) - len(bad)}/{len(verdicts)} as expected"
-                      + "".join(f"\n    UNEXPECTED {v.check} / {v.answer}: {'; '.join(v.problems)}" for v in bad[:5]),
+                      + "".join(f"\n    UNEXPECTED {v.check} / {v.answer}: {'; '.join(v.problems)}"
+                                + "".join(f"\n        {line.strip()}" for line in v.feedback.splitlines()
+                                          if line.strip().startswith("[FAIL]") and " sub-tests failed" not in line)
+                                for v in bad[:5]),
                       flush=True)
+        if len(paths) > 1:  # a long run shows each bank's table as soon as it is done
+            print_table({ex.check: rows[ex.check] for ex in exercises}, conditions)
     print()
-    head = f"{'exercise':<22}{'wrong':>6}{'right':>6}"
-    for c in conditions:
-        head += f"{'ref full ' + c:>19}{'all as expected':>17}"
-    print(head)
-    for check, row in rows.items():
-        line = f"{check:<22}{row['wrong']:>6}{row['right']:>6}"
-        for c in conditions:
-            ref = [v for v in row[c] if v.answer == "reference"]
-            runs = len(ref)
-            by_run: dict[int, list] = {}
-            for v in row[c]:
-                by_run.setdefault(v.run, []).append(v)
-            clean = sum(all(v.ok for v in vs) for vs in by_run.values())
-            line += f"{f'{sum(v.ok for v in ref)}/{runs}':>19}{f'{clean}/{len(by_run)} runs':>17}"
-        print(line)
+    print_table(rows, conditions)
     print()
     for c in conditions:
         s = seconds[c]

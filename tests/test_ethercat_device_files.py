@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pytest
 
-from robocourse.ethercat import OP, Bus, Master
+from robocourse.ethercat import OP, Bus, Esc, Master, demo_bus
 from robocourse.ethercat.device_files import (
     description_from_esi,
     device_emulation,
@@ -126,6 +126,11 @@ def test_device_emulation_is_bit_8_of_the_pdi_control_word(pdi, emulated):
     assert device_emulation(pdi) is emulated
     desc = DeviceDescription(0x2, 0x1, 0x1, "X", pdi_control=pdi, fmmus=())
     assert slave_from_sii(build_sii(desc)).device_emulation is emulated
+    assert Esc(desc).device_emulation is emulated              # every ESC, as the hardware does
+
+
+def test_the_simulated_devices_pdi_words_say_how_they_run_their_state_machine():
+    assert [type(s).__name__ for s in demo_bus().slaves if s.device_emulation] == ["Coupler"]
 
 
 def test_pdos_on_no_syncmanager_are_kept_and_take_no_process_data():

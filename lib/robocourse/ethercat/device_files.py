@@ -265,8 +265,7 @@ def slave_from_esi(source, device: str | int | None = None, revision: int | None
 
 
 def _slave(desc: DeviceDescription, image: bytes | None, model, port_descriptor, esc_kw) -> Esc:
-    esc = Esc(desc, model, device_emulation=device_emulation(desc.pdi_control), port_descriptor=port_descriptor,
-              **esc_kw)
+    esc = Esc(desc, model, port_descriptor=port_descriptor, **esc_kw)   # emulation: from the PDI word
     if image is not None:
         esc.sii = bytearray(image)   # the device's own bytes, not our rebuild (vendor categories included)
         esc.power_on()
