@@ -28,9 +28,7 @@ BANK_DIR = ROOT / "tests" / "banks"
 REPEATS = int(os.environ.get("ROBOCOURSE_BANK_REPEATS", "1"))
 
 #: Exercises whose bank another helper is writing now (issue 26); remove a name when its bank lands.
-PENDING = {
-    "ch05.franka_loop": "helper franka: its bank (tests/banks_pending/ch05_franka.py) is not yet stable in the sandbox",
-}
+PENDING: dict[str, str] = {}
 
 
 def load_bank(path) -> list[Exercise]:
