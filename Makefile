@@ -12,7 +12,7 @@ KERNEL := robocourse
 LAB_FLAGS ?=
 # the lab's settings live in the venv, never in your home (robocourse/cli/lab.py says what each does)
 PYTEST_FLAGS ?=
-# parallel workers for make test (pytest-xdist, scheduled by xdist group: tests/conftest.py);
+# parallel workers for make test (pytest-xdist, one module per worker, serial tests alone: tests/conftest.py);
 # TEST_JOBS=0 runs everything in this process
 TEST_JOBS ?= 3
 
@@ -48,7 +48,7 @@ lab-user:
 	fi
 
 test: $(STAMP)
-	$(PY) -X faulthandler -m pytest -n $(TEST_JOBS) --dist loadgroup --no-loadscope-reorder $(PYTEST_FLAGS)
+	$(PY) -X faulthandler -m pytest -n $(TEST_JOBS) --dist loadgroup $(PYTEST_FLAGS)
 
 exercises: $(STAMP)
 	$(VENV)/bin/robocourse exercises build

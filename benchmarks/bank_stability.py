@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib.util
+import os
 import statistics
 import sys
 import time
@@ -36,6 +37,26 @@ def load_bank(path: Path):
     return list(module.EXERCISES)
 
 
+def print_table(rows: dict, conditions: list[str]) -> None:
+    """Per exercise: bank size, the reference's full-score count and the runs with every answer as expected."""
+    head = f"{'exercise':<22}{'wrong':>6}{'right':>6}"
+    for c in conditions:
+        head += f"{'ref full ' + c:>19}{'all as expected':>17}"
+    print(head)
+    for check, row in rows.items():
+        line = f"{check:<22}{row['wrong']:>6}{row['right']:>6}"
+        for c in conditions:
+            ref = [v for v in row[c] if v.answer == "reference"]
+            runs = len(ref)
+            by_run: dict[int, list] = {}
+            for v in row[c]:
+                by_run.setdefault(v.run, []).append(v)
+            clean = sum(all(v.ok for v in vs) for vs in by_run.values())
+            line += f"{f'{sum(v.ok for v in ref)}/{runs}':>19}{f'{clean}/{len(by_run)} runs':>17}"
+        print(line)
+    print(flush=True)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--repeats", type=int, default=20, help="runs per condition (default 20)")
@@ -53,6 +74,7 @@ def main(argv=None) -> int:
     conditions = ["quiet"] + ([] if args.no_load else ["loaded"])
     rows: dict[str, dict] = {}
     seconds: dict[str, list[float]] = {c: [] for c in conditions}
+    loadavg: dict[str, list[float]] = {c: [] for c in conditions}  # the shared machine's 1-min load after each run
     for path in paths:
         exercises = load_bank(path)
         for ex in exercises:
@@ -65,34 +87,25 @@ def main(argv=None) -> int:
                     verdicts = grade_bank(exercises, solutions_dir=ROOT / "solutions", repeats=1,
                                           first_run=run + (1000 if condition == "loaded" else 0))
                 seconds[condition].append(time.monotonic() - start)
+                loadavg[condition].append(os.getloadavg()[0])
                 for v in verdicts:
                     rows[v.check][condition].append(v)
                 bad = [v for v in verdicts if not v.ok]
                 print(f"{path.stem} run {run + 1}/{args.repeats} {condition:<6} {seconds[condition][-1]:6.1f} s  "
+                      f"load avg {loadavg[condition][-1]:4.1f}  "
                       f"{len(verdicts) - len(bad)}/{len(verdicts)} as expected"
                       + "".join(f"\n    UNEXPECTED {v.check} / {v.answer}: {'; '.join(v.problems)}" for v in bad[:5]),
                       flush=True)
+        if len(paths) > 1:  # a long run shows each bank's table as soon as it is done
+            print_table({ex.check: rows[ex.check] for ex in exercises}, conditions)
     print()
-    head = f"{'exercise':<22}{'wrong':>6}{'right':>6}"
-    for c in conditions:
-        head += f"{'ref full ' + c:>19}{'all as expected':>17}"
-    print(head)
-    for check, row in rows.items():
-        line = f"{check:<22}{row['wrong']:>6}{row['right']:>6}"
-        for c in conditions:
-            ref = [v for v in row[c] if v.answer == "reference"]
-            runs = len(ref)
-            by_run: dict[int, list] = {}
-            for v in row[c]:
-                by_run.setdefault(v.run, []).append(v)
-            clean = sum(all(v.ok for v in vs) for vs in by_run.values())
-            line += f"{f'{sum(v.ok for v in ref)}/{runs}':>19}{f'{clean}/{len(by_run)} runs':>17}"
-        print(line)
+    print_table(rows, conditions)
     print()
     for c in conditions:
         s = seconds[c]
         print(f"{c:<7} seconds per bank run: median {statistics.median(s):.1f} (min {min(s):.1f}, max {max(s):.1f}) "
-              f"over {len(s)} runs")
+              f"over {len(s)} runs; 1-min load average after a run: median {statistics.median(loadavg[c]):.1f} "
+              f"(max {max(loadavg[c]):.1f}) on {os.cpu_count()} CPUs")
     if "loaded" in conditions:
         print(f"loaded / quiet: {statistics.median(seconds['loaded']) / statistics.median(seconds['quiet']):.2f}x")
     return 0

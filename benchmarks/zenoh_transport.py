@@ -3,6 +3,8 @@ and the chapter 2 pendulum graph split across two processes at 1 kHz. Same run, 
 
     .venv/bin/python benchmarks/zenoh_transport.py [--repeats 5] [--n 1000] [--quick]
     .venv/bin/python benchmarks/zenoh_transport.py --stages [--n 2000]
+    .venv/bin/python benchmarks/zenoh_transport.py --throughput [--repeats 5] [--flood 10000]
+    .venv/bin/python benchmarks/zenoh_transport.py --budget [--n 20000]
 
 A zenoh router runs in this process on a free loopback port (rmw_zenoh's defaults: peers,
 multicast scouting off). Rows:
@@ -112,31 +114,37 @@ wake-up overlaps the decode): no gain. Disabling zenoh timestamping (rmw_zenoh e
 or ``allowed_destination``: no difference.
 
 Throughput (issue 31: flat-out publish throughput >= 0.7x raw zenoh's, same payloads and
-processes; the throughput row of the table above, with each process's CPU time per message
-during the flood in the last two columns): NOT met. ``--quick`` on 2026-11-27 with the shared
-machine at load average 12-20: 0.17x [0.08..0.29] (small) and 0.26x [0.21..0.31] (1 kB) of raw
-zenoh's msgs/s; five 5000-message floods the same hour: 0.11x (15,608 vs 128,709 msgs/s). Where
-the time goes (that hour, so every figure is inflated by the load; same-run comparisons only):
+processes): NOT met, and not reachable by batching alone. ``--throughput [--flood 10000]``
+prints only the flood rows with each process's CPU time per message (/proc, all threads) and
+the rate one core would allow the busier process. Figures of 2026-11-27, 11:15-11:40 UTC, the
+shared 2-core machine at load average 20-35 (msgs/s then swing 5x between repeats; the CPU per
+message is what stays put, so the comparisons below are of CPU):
 
-- CPU per message, 5000-message floods: the publishing process 10.1 us (raw 3.7 us), the echo
-  process 10.0 us (raw 2.0 us). At 15-25 k msgs/s that is a third of a core or less: robocourse
-  is not CPU-bound in a flood, it waits.
-- The wait is the hand-off: a sample that finds the executor asleep releases its lock from
-  zenoh's thread and the spinning thread must then be scheduled by the OS, once per message
-  when the executor keeps up; on a loaded 2-core machine that wake-up sets the pace. Raw zenoh
-  answers inside zenoh's own, already running callback thread.
-- Warm per-stage CPU (one thread, no zenoh threads, same load): CDR decode 5.9 us (the message
-  constructor's field checks ~2 us of it), CDR encode 4.4, attachment pack 1.0, attachment read +
-  check 1.0, payload to bytes 0.5, value copy 0.8, Publisher.publish's own layers 1.2; a
-  subscription hand-off + take + callback 5.4 us per message when 100 wait in the queue, 12.9 us
-  one at a time.
+- CPU per message in a 10,000-message flood: robocourse 7-9 us in each process, raw zenoh 2-3 us
+  (echo) and 2-4 us (publisher). Throughput under that load is the share of the CPU each gets:
+  0.17x..0.46x raw in these runs, the same order as the CPU ratio (~0.3x).
+- The echo process spun with ``spin_once`` per message (the peer did until this round) paid
+  ``spin_once``'s own set-up for every sample: A/B in alternating runs, echo CPU 11.0 -> 9.0 us
+  (small) and 14.0 -> 11.0 us (1 kB) per message with ``spin()`` (rclpy.spin), kept. The
+  benchmark's own side now waits with ``spin_until_future_complete`` (an application's way),
+  not a ``spin_once`` per message.
+- ``--budget``: the echo's own work with no zenoh threads at all (the transport's real sample
+  callback and sender, the real executor, a counting ``put``): 22.5 us (small) / 24.2 us (1 kB)
+  per message when every sample wakes the sleeping executor (fed one at a time from another
+  thread), 5.1 / 6.0 us in batches of 100 (one wake per batch). So a wake-up per sample costs
+  more than all of robocourse's work on it, and batching can at best bring the echo to ~5 us
+  per message: still twice raw zenoh's whole process, a ceiling of ~0.4-0.5x raw's throughput.
+  In a real flood the executor already drains without sleeping whenever samples wait (the 7-9 us
+  measured sit between the two), so what remains is the codec and the layers (warm: CDR decode
+  ~1.8 us and encode ~2.1 us for the small String, the executor's take + run ~1.6 us, the
+  sample callback's attachment check + payload copy ~0.9 us, publish + send ~1.2 us).
+- Measured and not kept: decoding on the spinning thread instead of zenoh's (the sample
+  callback only checks the attachment and queues the payload): no less CPU (8.7 vs 7.8 us here,
+  8-9 vs 7-8 us echo, alternating runs), reverted.
 
-Candidates not tried in this round (so not measured): one wake-up per batch (the executor drains
-every queued sample of a subscription per wake-up, as it does once awake, and zenoh's thread
-skips the wake while a drain is running), a short poll before the executor sleeps while a
-stream is flowing, and decoding in the executor's thread so zenoh's thread never holds the GIL
-for the codec. None of them touches the value copy per subscription, the attachment per sample
-or the sequence numbers.
+Reaching 0.7x would need the per-message Python work under ~2 us per process: a compiled
+codec and hand-off, not a change of semantics. The value copy per subscription, the attachment
+per sample and the sequence numbers are untouched by all of the above.
 
 Stages (``--stages [--n 2000]``): one robocourse ping-pong with timing probes in both
 processes (``perf_counter_ns``, CLOCK_MONOTONIC, so stamps compare across processes on one
@@ -253,15 +261,23 @@ class BusSide:
             echo.create_subscription(String, "/ping", pub.publish, qos)
             self.ex.add_node(echo)
         self.t_recv = 0
+        self.want, self.done = 0, None
 
     def _on_pong(self, _msg):
         self.t_recv = time.perf_counter_ns()
         self.got += 1
+        if self.got >= self.want and self.done is not None and not self.done.done():
+            self.done.set_result(self.got)
 
     def wait(self, count, timeout=10.0):
-        end = time.monotonic() + timeout
-        while self.got < count and time.monotonic() < end:
-            self.ex.spin_once(timeout_sec=0.05)
+        """Spin as an application does (rclpy's spin_until_future_complete) until the
+        ``count``-th echo is back, not a spin_once per message."""
+        from robocourse.bus import Future
+
+        if self.got >= count:
+            return True
+        self.want, self.done = count, Future()
+        self.ex.spin_until_future_complete(self.done, timeout_sec=timeout)
         return self.got >= count
 
     def pingpong(self, msg, n):
@@ -577,6 +593,146 @@ def stages(n):
     print(f"  {'round trip (client publish -> callback)':44} {float(np.median(rtt)) / 1e3:7.1f}")
 
 
+# ------------------------------------------------------------------------------ CPU budget
+def budget(n):
+    """The echo process's own work per message, without zenoh's network threads or sockets:
+    the transport's real sample callback (fed samples that carry rmw_zenoh's attachment and
+    the CDR payload, from another thread, as zenoh's callback thread does) and its real sender
+    (into a ``put`` that only counts), the echo node spun by a SingleThreadedExecutor in its own
+    thread (``spin()``, as the peer process). Fed one sample at a time (the next once the echo
+    is out: the executor sleeps and is woken for every sample, as in a flood it keeps up with)
+    and in batches of 100 (the executor wakes once per batch and drains it: what
+    subscriber-side batching could give at best). CPU time of the whole process per message,
+    best of 3: the floor robocourse's layers put under a flood, whatever zenoh does."""
+    from robocourse.bus import Context, HistoryPolicy, QoSProfile, SingleThreadedExecutor
+    from robocourse.bus.zenoh import transport, wire
+    from robocourse.msgs.std_msgs import String
+
+    class _Bytes:
+        __slots__ = ("b",)
+
+        def __init__(self, b):
+            self.b = b
+
+        def to_bytes(self):
+            return self.b
+
+    class _Sample:
+        __slots__ = ("attachment", "payload")
+
+        def __init__(self, att, payload):
+            self.attachment, self.payload = _Bytes(att), _Bytes(payload)
+
+    state = {"count": 0, "want": 0}
+    echoed = threading.Event()
+
+    class _Put:
+        def put(self, data, attachment=None):
+            state["count"] += 1
+            if state["count"] >= state["want"]:
+                echoed.set()
+
+    ctx = Context()
+    qos = QoSProfile(depth=7, history=HistoryPolicy.KEEP_ALL)
+    node = ctx.create_node("echo")
+    pub = node.create_publisher(String, "/pong", qos)
+    sub = node.create_subscription(String, "/ping", pub.publish, qos)
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    zt = transport.ZenohTransport.__new__(transport.ZenohTransport)   # no session: hooks only
+    zt.dropped_no_attachment = zt.dropped_undecodable = 0
+    on_sample = zt._on_sample(sub)
+    loc = transport._Local("budget", None, "budget", _Put())
+    loc.t = String
+    pub._remote = zt._sender(loc)
+    spinner = threading.Thread(target=ex.spin, daemon=True)
+    spinner.start()
+    print(f"echo's own work per message (CPU us of the process, best of 3 x {n} messages; no "
+          f"zenoh threads)")
+    print(f"{'payload':8} {'one at a time':>14} {'batches of 100':>15}")
+    for size in SIZES:
+        cdr = wire.to_cdr(_payload(size))
+        samples = [_Sample(wire.encode_attachment(i, b"g" * 16), cdr) for i in range(1, n + 1)]
+
+        def run(batch, samples=samples):
+            state["count"] = 0
+            t0 = time.process_time()
+            for i in range(0, n, batch):
+                echoed.clear()
+                state["want"] = min(i + batch, n)
+                for sample in samples[i:i + batch]:
+                    on_sample(sample)
+                if not echoed.wait(10):
+                    raise RuntimeError(f"{state['count']} of {state['want']} echoed")
+            return (time.process_time() - t0) / n * 1e6
+        one, hundred = (min(run(b) for _ in range(3)) for b in (1, 100))
+        print(f"{size:8} {one:14.2f} {hundred:15.2f}")
+    ctx.try_shutdown()
+    spinner.join(5)
+    return 0
+
+
+# ------------------------------------------------------------------------------ throughput only
+def throughput(repeats, n):
+    """Flood rows only: ``n`` messages back to back per path (robocourse/zenoh, raw zenoh),
+    interleaved, ``repeats`` times per payload. Besides msgs/s, each process's CPU time per
+    message (all threads, from /proc: 10 ms ticks, so floods of 10,000+ messages) and the rate
+    that CPU allows when the busier process has a whole core (1 / its CPU per message): when
+    the measured rate is near it, the flood is CPU-bound, otherwise it waits (wake-ups, GIL)."""
+    from robocourse.bus import Context
+    from robocourse.bus.zenoh import wire
+    from robocourse.bus.zenoh.transport import router
+
+    ep = f"tcp/127.0.0.1:{_free_port()}"
+    r = router([ep])
+    procs = [_spawn(["-m", "robocourse.bus.zenoh.peer", "echo", "--connect", ep, "--keep-all"]),
+             _spawn([__file__, "--role", "raw-echo", "--connect", ep])]
+    zctx = Context(transport="zenoh", connect=[ep])
+    sides = {"robocourse/zenoh": BusSide(zctx, local_echo=False), "raw zenoh": RawSide(ep)}
+    zctx.transport.wait_for(lambda t: len([e for e in t.remote_entities("MS")
+                                           if e.topic == "/ping"]) == 1, 20)
+    echo_of = {"robocourse/zenoh": procs[0].pid, "raw zenoh": procs[1].pid}
+    time.sleep(0.5)
+    print(f"# {repeats} repeats x {n}-message floods per payload and path; router {ep}", flush=True)
+    rows = {}
+    for rep in range(repeats):
+        for size in SIZES:
+            msg = _payload(size)
+            order = list(sides) if rep % 2 == 0 else list(reversed(sides))
+            for path in order:
+                item = wire.to_cdr(msg) if path == "raw zenoh" else msg
+                sides[path].flood(item, 500)                   # warm-up
+                c0, e0 = time.process_time(), _cpu_s(echo_of[path])
+                rate = sides[path].flood(item, n)
+                c1, e1 = time.process_time(), _cpu_s(echo_of[path])
+                d = rows.setdefault((size, path), {"tput": [], "here": [], "echo": []})
+                d["tput"].append(rate)
+                d["here"].append((c1 - c0) / n * 1e6)
+                d["echo"].append((e1 - e0) / n * 1e6)
+        print(f"  repeat {rep + 1}/{repeats} done", flush=True)
+    for p in procs:
+        p.stdin.close()
+        p.wait(timeout=10)
+    zctx.try_shutdown()
+    sides["raw zenoh"].s.close()
+    r.close()
+    print(f"\nflood of {n} messages, each echoed back by the other process; median [min..max] "
+          f"over repeats")
+    print(f"{'payload':8} {'path':18} {'msgs/s':>26} {'CPU us/msg here':>22} "
+          f"{'CPU us/msg echo':>22} {'rate 1 core allows':>20}")
+    for size in SIZES:
+        for path in sides:
+            d = rows[(size, path)]
+            ceiling = med([1e6 / max(h, e) for h, e in zip(d["here"], d["echo"]) if max(h, e) > 0])
+            print(f"{size:8} {path:18} {fmt(med(d['tput'])):>26} {fmt(med(d['here'])):>22} "
+                  f"{fmt(med(d['echo'])):>22} {ceiling[0]:>20,.0f}")
+        ratio = med([x / y for x, y in zip(rows[(size, "robocourse/zenoh")]["tput"],
+                                            rows[(size, "raw zenoh")]["tput"])])
+        print(f"  {size}: robocourse/zenoh throughput {fmt(ratio, 'x', 2)} raw zenoh (median of "
+              f"per-repeat ratios; goal >= {GOAL_TPUT}x: {'met' if ratio[0] >= GOAL_TPUT else 'NOT met'})")
+    return 0
+
+
 # ------------------------------------------------------------------------------ main
 def _free_port():
     with socket.socket() as s:
@@ -620,21 +776,33 @@ def main():
     ap.add_argument("--connect")
     ap.add_argument("--out")
     ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--n", type=int, default=1000, help="round trips per row and repeat")
-    ap.add_argument("--flood", type=int, default=5000, help="messages per throughput run")
+    ap.add_argument("--n", type=int, default=None,
+                    help="round trips per row and repeat (1000; --stages 2000, --budget 20000 messages)")
+    ap.add_argument("--flood", type=int, default=None,
+                    help="messages per throughput run (5000; --throughput 10000)")
     ap.add_argument("--seconds", type=float, default=5.0, help="pendulum run length")
     ap.add_argument("--quick", action="store_true", help="3 repeats, fewer messages")
     ap.add_argument("--stages", action="store_true",
                     help="only time each stage of a robocourse hop (probes in both processes)")
+    ap.add_argument("--throughput", action="store_true",
+                    help="only the flood rows (robocourse/zenoh vs raw zenoh), --flood messages each, "
+                         "with each process's CPU per message and the rate it allows")
+    ap.add_argument("--budget", action="store_true",
+                    help="only the echo's own Python work per message, without zenoh")
     a = ap.parse_args()
+    if a.budget:
+        return budget(a.n or 20000)
+    if a.throughput:
+        return throughput(a.repeats, a.flood or 10000)
     if a.role == "stage-echo":
         return stage_echo(a.connect, a.out)
     if a.stages:
-        return stages(a.n)
+        return stages(a.n or 2000)
     if a.role in ("raw-echo", "handoff-echo"):
         return raw_echo(a.connect, handoff=a.role == "handoff-echo")
     if a.role in ("motor", "controller"):
         return pendulum_role(a.role, a.connect, a.seconds, a.out)
+    a.n, a.flood = a.n or 1000, a.flood or 5000
     if a.quick:
         a.repeats, a.n, a.flood, a.seconds = 3, 300, 1000, 2.0
 

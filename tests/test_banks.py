@@ -75,8 +75,10 @@ def test_every_exercise_has_a_bank_of_three_wrong_and_one_other_right_answer():
     registry = checks_mod.discover()
     import nbformat
 
-    graded = {n for sol in (ROOT / "solutions").glob("*.ipynb")
-              for n in checks_in(nbformat.read(sol, as_version=4)) if n in registry}
+    called = {n for sol in (ROOT / "solutions").glob("*.ipynb") for n in checks_in(nbformat.read(sol, as_version=4))}
+    unknown = sorted(called - set(registry))
+    assert not unknown, f"solutions call checks no module registers (they would escape the bank): {unknown}"
+    graded = called
     banked = {ex.check: ex for exercises in BANKS.values() for ex in exercises}
     missing = sorted(n for n in graded if n not in banked and not _pending(n))
     assert not missing, f"exercises without a bank in tests/banks/: {missing}"

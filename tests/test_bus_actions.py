@@ -111,6 +111,57 @@ def test_goal_rejected_by_goal_callback():
     assert send(ex, client, 3).accepted
 
 
+@pytest.mark.parametrize("answer", [True, 2, None, "ACCEPT", CancelResponse.ACCEPT])
+def test_goal_callback_returning_no_goal_response_rejects_the_goal(answer):
+    # rclpy _execute_goal_request: "Goal request callback did not return a GoalResponse type.
+    # Rejecting goal." -- a warning on the server, a plain rejection on the client
+    ctx, s, c, server, client, ex = setup(goal_callback=lambda g: answer)
+    h = send(ex, client, 3)
+    assert not h.accepted and h.status == S.STATUS_UNKNOWN
+    assert ex.callback_errors == [] and server._goals == {}
+    warned = [r.msg for r in ctx.log_records if r.severity.name == "WARN"]
+    assert len(warned) == 1 and warned[0].startswith(
+        "Goal request callback did not return a GoalResponse type. Rejecting goal.")
+
+
+def test_cancel_callback_returning_no_cancel_response_rejects_the_cancel():
+    ctx, s, c, server, client, ex = setup(cancel_callback=lambda gh: 2)   # the value, not the enum
+    h = send(ex, client, 10)
+    cf = h.cancel_goal_async()
+    ex.spin_until_future_complete(cf)
+    assert cf.result().return_code == CancelGoal.Response.ERROR_REJECTED
+    assert result(ex, h).status == S.STATUS_SUCCEEDED
+
+
+def test_deferred_goal_cancelled_before_execute_still_executes_and_ends_canceled():
+    # rclpy ServerGoalHandle.execute(): a goal whose cancel was accepted before execute() skips
+    # the EXECUTE transition (CANCELING -> EXECUTING is illegal) but the execute callback runs
+    deferred, ran = [], []
+
+    def execute(goal_handle):
+        ran.append(goal_handle.status)
+        if goal_handle.is_cancel_requested:
+            goal_handle.canceled()
+            return Fibonacci.Result(sequence=[0])
+        goal_handle.succeed()
+        return Fibonacci.Result(sequence=[0, 1])
+
+    ctx, s, c, server, client, ex = setup(execute, handle_accepted_callback=deferred.append,
+                                          cancel_callback=lambda gh: CancelResponse.ACCEPT)
+    h = send(ex, client, 4)
+    ex.spin_for(0.1)
+    assert len(deferred) == 1 and deferred[0].status == S.STATUS_ACCEPTED and ran == []
+    cf = h.cancel_goal_async()
+    ex.spin_until_future_complete(cf)
+    assert cf.result().return_code == CancelGoal.Response.ERROR_NONE
+    assert deferred[0].status == S.STATUS_CANCELING
+    deferred[0].execute()
+    r = result(ex, h)
+    assert ran == [S.STATUS_CANCELING]
+    assert r.status == S.STATUS_CANCELED and r.result.sequence.tolist() == [0]
+    assert ex.callback_errors == []
+
+
 def test_cancel_is_rejected_by_default():
     ctx, s, c, server, client, ex = setup()
     h = send(ex, client, 10)

@@ -241,8 +241,15 @@ def test_spinning_from_inside_a_callback_is_refused():
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(n)
     n.create_timer(0.1, lambda: ex.spin_once(0))
-    ex.spin_for(0.5)
-    assert len(ex.callback_errors) == 5 and "already spinning" in str(ex.callback_errors[0].exception)
+    with pytest.raises(RuntimeError, match="already spinning on this thread"):
+        ex.spin_for(0.5)
+    assert len(ex.callback_errors) == 1 and not ex.is_spinning()
+    log_mode = SingleThreadedExecutor(context=ctx, on_callback_error="log")
+    log_mode.add_node(n)
+    n.create_timer(0.1, lambda: log_mode.spin_once(0))
+    log_mode.spin_for(0.5)      # keeps going: 5 ticks, each refused (the first timer spins `ex`)
+    assert len(log_mode.callback_errors) == 5
+    assert all("already spinning" in str(e.exception) for e in log_mode.callback_errors)
 
 
 def test_rclpy_style_globals_init_spin_once_spin_until_future_complete_shutdown():
@@ -381,3 +388,60 @@ def test_single_threaded_wake_signal_keeps_event_semantics():
     sleeper.join(30)
     assert not sleeper.is_alive()
     assert ex._sleeping == 0
+
+
+def test_callback_exceptions_leave_spin_once_like_rclpy():
+    # rclpy SingleThreadedExecutor._spin_once_impl: handler(); if handler.exception(): raise it
+    ctx = Context(use_sim_time=True)
+    ctx.log_to_stderr = False
+    n = ctx.create_node("n")
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(n)
+    ticks = []
+
+    def tick():
+        ticks.append(len(ticks))
+        if len(ticks) == 2:
+            raise KeyError("second tick")
+
+    n.create_timer(0.1, tick)
+    ex.spin_once(timeout_sec=1.0)
+    with pytest.raises(KeyError, match="second tick"):
+        ex.spin_once(timeout_sec=1.0)
+    ex.spin_once(timeout_sec=1.0)
+    assert ticks == [0, 1, 2] and [type(e.exception) for e in ex.callback_errors] == [KeyError]
+
+    # an async callback that fails after an await: raised by the spin call that ran that step
+    async def later():
+        await n.sleep_async(0.05)
+        raise ValueError("after the await")
+
+    t2 = n.create_timer(0.1, later)
+    t_ticks = ticks.copy()
+    with pytest.raises(ValueError, match="after the await"):
+        ex.spin_for(0.5)
+    n.destroy_timer(t2)
+    assert len(ticks) > len(t_ticks)
+    assert "timer callback of node '/n'" in ex.callback_errors[-1].where
+
+    # a task: its exception is kept on the task and leaves spin, as rclpy's Task
+    task = ex.create_task(lambda: 1 / 0)
+    with pytest.raises(ZeroDivisionError):
+        ex.spin_until_future_complete(task)
+    assert task.done() and isinstance(task.exception(), ZeroDivisionError)
+
+
+def test_multithreaded_executor_reraises_a_callback_exception_from_spin():
+    ctx = Context()
+    ctx.log_to_stderr = False
+    n = ctx.create_node("n")
+    n.create_timer(0.01, lambda: (_ for _ in ()).throw(RuntimeError("pool callback failed")))
+    ex = MultiThreadedExecutor(num_threads=2, context=ctx)
+    ex.add_node(n)
+    with pytest.raises(RuntimeError, match="pool callback failed"):
+        ex.spin()
+    assert not ex.is_spinning() and len(ex.callback_errors) >= 1
+    log_mode = MultiThreadedExecutor(num_threads=2, context=ctx, on_callback_error="log")
+    log_mode.add_node(n)
+    log_mode.spin_for(0.1)         # keeps going, logs and records each failure
+    assert len(log_mode.callback_errors) >= 2

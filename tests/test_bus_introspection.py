@@ -32,7 +32,11 @@ def graph():
 
 def test_topic_list_and_info(capsys):
     ctx, ex = graph()
-    assert ros2.topic_list(ctx) == [("/cmd_vel", ["geometry_msgs/msg/Twist"])]
+    # as `ros2 topic list -t` on a graph of rclpy nodes: every node publishes /parameter_events
+    # and /rosout
+    assert ros2.topic_list(ctx) == [("/cmd_vel", ["geometry_msgs/msg/Twist"]),
+                                    ("/parameter_events", ["rcl_interfaces/msg/ParameterEvent"]),
+                                    ("/rosout", ["rcl_interfaces/msg/Log"])]
     info = ros2.topic_info(ctx, "/cmd_vel", verbose=True)
     out = capsys.readouterr().out
     assert "/cmd_vel [geometry_msgs/msg/Twist]" in out
@@ -62,11 +66,24 @@ def test_echo_hz_bw_on_sim_time(capsys):
 def test_node_info_service_list_and_call(capsys):
     ctx, ex = graph()
     info = ros2.node_info(ctx, "/talker")
-    assert info["Publishers"] == [("/cmd_vel", "geometry_msgs/msg/Twist")]
-    assert info["Service Servers"] == [("/add", "example_interfaces/srv/AddTwoInts")]
+    # what `ros2 node info /talker` shows for an rclpy node on Jazzy
+    assert info["Publishers"] == [("/cmd_vel", "geometry_msgs/msg/Twist"),
+                                  ("/parameter_events", "rcl_interfaces/msg/ParameterEvent"),
+                                  ("/rosout", "rcl_interfaces/msg/Log")]
+    assert info["Service Servers"] == [("/add", "example_interfaces/srv/AddTwoInts")] + [
+        (f"/talker/{name}", f"rcl_interfaces/srv/{t}") for name, t in (
+            ("describe_parameters", "DescribeParameters"),
+            ("get_parameter_types", "GetParameterTypes"), ("get_parameters", "GetParameters"))] + [
+        ("/talker/get_type_description", "type_description_interfaces/srv/GetTypeDescription")] + [
+        (f"/talker/{name}", f"rcl_interfaces/srv/{t}") for name, t in (
+            ("list_parameters", "ListParameters"), ("set_parameters", "SetParameters"),
+            ("set_parameters_atomically", "SetParametersAtomically"))]
     out = capsys.readouterr().out
     assert "/talker\n  Subscribers:\n  Publishers:\n    /cmd_vel: geometry_msgs/msg/Twist" in out
-    assert ros2.service_list(ctx) == [("/add", ["example_interfaces/srv/AddTwoInts"])]
+    services = ros2.service_list(ctx)
+    assert ("/add", ["example_interfaces/srv/AddTwoInts"]) in services
+    assert ("/ns/listener/get_parameters", ["rcl_interfaces/srv/GetParameters"]) in services
+    assert len(services) == 1 + 2 * 7
     resp = ros2.service_call(ctx, "/add", AddTwoInts, {"a": 2, "b": 40}, ex)
     assert resp.sum == 42
     out = capsys.readouterr().out
@@ -100,6 +117,7 @@ def test_doctor_and_graph_picture_mark_incompatible_qos(capsys):
     assert ("/imu", "/ns/listener", "incompatible", "QoS RELIABILITY") in pic.edges
     assert ("/talker", "/cmd_vel", "pub", "") in pic.edges
     assert "QoS RELIABILITY" in svg and "stroke-dasharray" in svg
+    assert repr(pic) == "<rqt_graph picture: 3 nodes, 2 topics, 4 arrows (SVG)>"   # a saved notebook's text: no address
 
 
 def test_cli_calls_wait_on_an_executor_another_thread_spins():

@@ -106,8 +106,95 @@ def test_param_cli(capsys):
     ctx = Context()
     n = ctx.create_node("ctl")
     n.declare_parameter("kp", 2.0)
-    assert ros2.param_list(ctx, "/ctl") == ["kp", "use_sim_time"]
+    # an rclpy node on Jazzy also lists its read-only start_type_description_service
+    assert ros2.param_list(ctx, "/ctl") == ["kp", "start_type_description_service", "use_sim_time"]
     assert ros2.param_get(ctx, "/ctl", "kp") == 2.0
     assert ros2.param_set(ctx, "/ctl", "kp", 3.0).successful
     out = capsys.readouterr().out
     assert "Double value is: 2.0" in out and "Set parameter successful" in out
+
+
+def test_declared_with_a_type_and_no_value_is_uninitialized_until_set():
+    # rclpy Node.get_parameter: "ParameterUninitializedException if the parameter is
+    # statically typed and uninitialized"
+    from robocourse.bus.parameters import ParameterUninitializedException
+
+    n = node()
+    p = n.declare_parameter("robot_ip", Parameter.Type.STRING)
+    assert p.type_ == Parameter.Type.NOT_SET and p.value is None
+    assert n.describe_parameter("robot_ip").type == Parameter.Type.STRING
+    with pytest.raises(ParameterUninitializedException, match="'robot_ip' is not initialized"):
+        n.get_parameter("robot_ip")
+    with pytest.raises(ParameterUninitializedException):
+        n.get_parameters(["use_sim_time", "robot_ip"])
+    assert n.get_parameter_or("robot_ip", Parameter("robot_ip", value="x")).value == "x"
+    assert n.get_parameter_type("robot_ip") == Parameter.Type.NOT_SET
+    bad = n.set_parameters([Parameter("robot_ip", value=3)])[0]
+    assert not bad.successful and "STRING" in bad.reason
+    assert n.set_parameters([Parameter("robot_ip", value="10.0.0.2")])[0].successful
+    assert n.get_parameter("robot_ip").value == "10.0.0.2"
+    # an override initializes it at declaration
+    o = node(parameter_overrides=[Parameter("robot_ip", value="192.168.1.5")])
+    assert o.declare_parameter("robot_ip", Parameter.Type.STRING).value == "192.168.1.5"
+    with pytest.raises(ValueError, match="statically typed of type NOT_SET"):
+        n.declare_parameter("x", Parameter.Type.NOT_SET)
+
+
+def test_static_parameter_cannot_be_undeclared_by_setting_not_set():
+    # rclpy _apply_descriptor: 'Static parameter cannot be undeclared'
+    n = node()
+    n.declare_parameter("kp", 2.0)
+    res = n.set_parameters([Parameter("kp", Parameter.Type.NOT_SET)])[0]
+    assert not res.successful and res.reason == "Static parameter cannot be undeclared"
+    assert n.has_parameter("kp") and n.get_parameter("kp").value == 2.0
+    # a dynamically typed one can be: setting NOT_SET undeclares it
+    n.declare_parameter("anything", 1, ParameterDescriptor(dynamic_typing=True))
+    assert n.set_parameters([Parameter("anything", value="now a string")])[0].successful
+    assert n.describe_parameter("anything").type == Parameter.Type.STRING
+    assert n.set_parameters([Parameter("anything", Parameter.Type.NOT_SET)])[0].successful
+    assert not n.has_parameter("anything")
+    # rclpy's name-only declaration is dynamically typed: get gives NOT_SET, no exception
+    p = n.declare_parameter("loose")
+    assert p.type_ == Parameter.Type.NOT_SET and n.get_parameter("loose").value is None
+    assert n.describe_parameter("loose").dynamic_typing
+
+
+def test_list_parameters_prefixes_and_depth_like_rclpy():
+    n = node()
+    for name in ("a.b.c", "a.b.d", "a.e", "f"):
+        n.declare_parameter(name, 1)
+    everything = n.list_parameters([], 0)
+    assert sorted(everything.names) == ["a.b.c", "a.b.d", "a.e", "f",
+                                        "start_type_description_service", "use_sim_time"]
+    assert sorted(everything.prefixes) == ["a", "a.b"]
+    assert sorted(n.list_parameters([], 1).names) == ["f", "start_type_description_service",
+                                                      "use_sim_time"]
+    assert sorted(n.list_parameters(["a"], 1).names) == ["a.e"]
+    assert sorted(n.list_parameters(["a"], 0).names) == ["a.b.c", "a.b.d", "a.e"]
+    assert sorted(n.list_parameters(["a.b"], 1).names) == ["a.b.c", "a.b.d"]
+    with pytest.raises(ValueError, match="greater than or equal to zero"):
+        n.list_parameters([], -1)
+
+
+def test_every_declaration_and_set_is_a_parameter_event():
+    from robocourse.bus import SingleThreadedExecutor
+    from robocourse.msgs.rcl_interfaces import ParameterEvent
+
+    ctx = Context()
+    watcher = ctx.create_node("watcher")
+    events = []
+    watcher.create_subscription(ParameterEvent, "/parameter_events", events.append, 1000)
+    n = ctx.create_node("ctl", namespace="/arm")
+    n.declare_parameter("kp", 2.0)
+    n.set_parameters([Parameter("kp", value=3.0)])
+    n.set_parameters([Parameter("kp", value="bad")])        # refused: no event
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(watcher)
+    ex.spin_some()
+    mine = [e for e in events if e.node == "/arm/ctl"]
+    # rclpy: use_sim_time, start_type_description_service and kp declared, then kp changed
+    assert [[p.name for p in e.new_parameters] for e in mine] == [
+        ["use_sim_time"], ["start_type_description_service"], ["kp"], []]
+    assert [p.name for p in mine[3].changed_parameters] == ["kp"]
+    assert mine[3].changed_parameters[0].value.type == Parameter.Type.DOUBLE
+    assert mine[3].changed_parameters[0].value.double_value == 3.0

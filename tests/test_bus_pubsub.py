@@ -77,8 +77,10 @@ def test_calling_a_destroyed_publisher_raises():
         n.create_publisher(Float64, "z", 10)
 
 
-def test_subscriber_callback_raising_is_reported_and_executor_keeps_running():
-    ctx, ex = make()
+def _raising_graph(ex_kwargs=None):
+    ctx = Context(use_sim_time=True)
+    ctx.log_to_stderr = False
+    ex = SingleThreadedExecutor(context=ctx, **(ex_kwargs or {}))
     a, b = ctx.create_node("talker"), ctx.create_node("listener")
     pub = a.create_publisher(Int64, "numbers", 10)
     got = []
@@ -93,6 +95,28 @@ def test_subscriber_callback_raising_is_reported_and_executor_keeps_running():
     ex.add_node(b)
     for i in range(5):
         pub.publish(Int64(data=i))
+    return ctx, ex, got
+
+
+def test_subscriber_callback_raising_leaves_spin_like_rclpy():
+    # rclpy's executor re-raises a callback's exception out of spin_once / spin; the executor
+    # stays usable and the next spin call takes the remaining messages
+    ctx, ex, got = _raising_graph()
+    with pytest.raises(ValueError, match="two is bad"):
+        ex.spin_for(0.1)
+    assert got == [0, 1]
+    assert not ex.is_spinning()
+    ex.spin_for(0.1)
+    assert got == [0, 1, 3, 4]
+    assert len(ex.callback_errors) == 1             # recorded as well, nothing is lost
+    err = ex.callback_errors[0]
+    assert "topic '/numbers'" in err.where and "node '/listener'" in err.where
+    assert isinstance(err.exception, ValueError) and ctx.callback_errors == [err]
+    assert not [r for r in ctx.log_records if r.severity.name == "ERROR"]
+
+
+def test_subscriber_callback_raising_in_log_mode_is_reported_and_executor_keeps_running():
+    ctx, ex, got = _raising_graph({"on_callback_error": "log"})
     ex.spin_for(0.1)
     assert got == [0, 1, 3, 4]
     assert len(ex.callback_errors) == 1
@@ -101,6 +125,8 @@ def test_subscriber_callback_raising_is_reported_and_executor_keeps_running():
     assert isinstance(err.exception, ValueError)
     logged = [r for r in ctx.log_records if r.severity.name == "ERROR"]
     assert len(logged) == 1 and "two is bad" in logged[0].msg and logged[0].name == "listener"
+    with pytest.raises(ValueError, match="'raise'.*'log'"):
+        SingleThreadedExecutor(context=ctx, on_callback_error="ignore")
 
 
 def test_duplicate_node_names_warn_and_both_work(capsys):

@@ -149,22 +149,47 @@ def test_one_publisher_serves_compatible_and_incompatible_subscriptions_per_pair
     assert [m.data for m in ok] == [7] and bad == []
 
 
+def test_check_compatible_returns_rclpys_tuple():
+    # rclpy: `compatibility, reason = qos_check_compatible(publisher_qos, subscription_qos)`
+    compatibility, reason = qos_check_compatible(q(reliability=BE), q(reliability=R))
+    assert compatibility == QoSCompatibility.ERROR
+    assert reason == "ERROR: Best effort publisher and reliable subscription;"
+    res = qos_check_compatible(q(), q())
+    assert tuple(res) == (QoSCompatibility.OK, "") and len(res) == 2
+    assert res == (QoSCompatibility.OK, "") and res.compatibility == QoSCompatibility.OK
+    assert res.policy is None
+
+
 def test_system_default_gives_a_warning_not_an_error():
     res = qos_check_compatible(QoSProfile(depth=1, reliability=ReliabilityPolicy.SYSTEM_DEFAULT), q())
     assert res.compatibility == QoSCompatibility.WARNING and "SYSTEM_DEFAULT" in res.reason
 
 
-def test_invalid_qos_keep_last_depth_zero():
-    with pytest.raises(InvalidQoSProfileException, match="depth >= 1"):
-        QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=0)
+def test_keep_last_depth_zero_warns_and_keeps_the_system_default_depth():
+    # rclpy (Jazzy+): "A zero depth with KEEP_LAST doesn't make sense; no data could be stored.
+    # This will be interpreted as SYSTEM_DEFAULT" -- a warning, the profile keeps depth 0
+    with pytest.warns(UserWarning, match="zero depth with KEEP_LAST.*SYSTEM_DEFAULT"):
+        q = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=0)
+    assert q.depth == 0 and q.history == HistoryPolicy.KEEP_LAST
     with pytest.raises(InvalidQoSProfileException, match="history policy or a depth"):
         QoSProfile()
+    with pytest.raises(InvalidQoSProfileException, match="KEEP_LAST without a depth"):
+        QoSProfile(history=HistoryPolicy.KEEP_LAST)
     with pytest.raises(InvalidQoSProfileException):
         QoSProfile(depth=1, deadline=-1.0)
     ctx = Context()
     node = ctx.create_node("n")
-    with pytest.raises(InvalidQoSProfileException):
-        node.create_publisher(Int64, "t", 0)     # an int is KEEP_LAST depth, like rclpy
+    with pytest.warns(UserWarning, match="zero depth"):
+        pub = node.create_publisher(Int64, "t", 0)     # an int is KEEP_LAST depth, like rclpy
+        got = []
+        node.create_subscription(Int64, "t", lambda m: got.append(m.data), 0)
+    for i in range(50):
+        pub.publish(Int64(data=i))
+    ex = SingleThreadedExecutor(context=ctx)
+    ex.add_node(node)
+    ex.spin_some()
+    # depth 0 = the middleware's default: rmw_zenoh's 42 (qos.cpp best_available_qos)
+    assert got == list(range(8, 50))
     with pytest.raises(TypeError):
         node.create_publisher(Int64, "t", "reliable")
 

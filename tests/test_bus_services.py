@@ -74,7 +74,10 @@ def test_service_callback_raising_gives_the_client_an_error_and_server_survives(
     srv = server.create_service(AddTwoInts, "add", fragile)
     cli = client.create_client(AddTwoInts, "add")
     bad = cli.call_async(AddTwoInts.Request(a=-1, b=0))
-    ex.spin_until_future_complete(bad)
+    # rclpy: the exception leaves the server's spin; here the client also learns why
+    with pytest.raises(ValueError, match="negative input"):
+        ex.spin_until_future_complete(bad)
+    ex.spin_until_future_complete(bad)      # the executor goes on: the client gets its answer
     assert isinstance(bad.exception(), ServiceCallbackError)
     assert "negative input" in str(bad.exception())
     with pytest.raises(ServiceCallbackError):
@@ -90,6 +93,8 @@ def test_service_callback_returning_nothing_is_an_error():
     server.create_service(AddTwoInts, "add", lambda req, resp: None)
     cli = client.create_client(AddTwoInts, "add")
     f = cli.call_async(AddTwoInts.Request())
+    with pytest.raises(TypeError, match="return the response"):   # out of spin, as rclpy
+        ex.spin_until_future_complete(f)
     ex.spin_until_future_complete(f)
     assert "return the response" in str(f.exception())
 
@@ -99,7 +104,8 @@ def test_sync_call_inside_callback_on_single_threaded_executor_raises_deadlock_e
     server.create_service(AddTwoInts, "add", add)
     cli = client.create_client(AddTwoInts, "add")
     client.create_timer(0.1, lambda: cli.call(AddTwoInts.Request(a=1, b=2)))
-    ex.spin_for(0.1)
+    with pytest.raises(DeadlockError):      # rclpy would hang here; the error leaves spin
+        ex.spin_for(0.1)
     assert len(ex.callback_errors) == 1
     err = ex.callback_errors[0].exception
     assert isinstance(err, DeadlockError)
@@ -133,12 +139,21 @@ def test_sync_call_in_same_exclusive_group_on_multithreaded_executor_raises():
     n.create_timer(0.01, tick)
     ex = MultiThreadedExecutor(num_threads=2, context=ctx)
     ex.add_node(n)
-    th = threading.Thread(target=ex.spin)
+    raised = []
+
+    def spin():
+        try:
+            ex.spin()
+        except DeadlockError as exc:      # the callback's exception leaves spin (rclpy)
+            raised.append(exc)
+
+    th = threading.Thread(target=spin)
     th.start()
     done.wait(5)
-    ctx.shutdown()
     th.join(5)
-    assert results == []
+    ctx.shutdown()
+    assert results == [] and not th.is_alive()
+    assert len(raised) == 1 and raised[0] is ex.callback_errors[0].exception
     assert isinstance(ex.callback_errors[0].exception, DeadlockError)
     assert "same MutuallyExclusiveCallbackGroup" in str(ex.callback_errors[0].exception)
 

@@ -94,7 +94,7 @@ def test_wheel_speeds_from_cmd_vel_and_exact_arc_odometry():
     cm = dd_cm()
     odoms, tfs = [], []
     node = cm.context.create_node("listener")
-    node.create_subscription(Odometry, "/odom", odoms.append, 10)
+    node.create_subscription(Odometry, "/dd/odom", odoms.append, 10)     # upstream's "~/odom"
     node.create_subscription(TFMessage, "/tf", tfs.append, 10)
     cm.executor.add_node(node)
     v, w = 0.3, 0.8
@@ -167,3 +167,23 @@ def test_open_loop_odometry_integrates_the_command():
     send(cm, 0.1, 0.0)
     cm.step(30)
     assert cm.controllers["dd"].c.x == pytest.approx(0.1 * 0.3)
+
+
+def test_odometry_is_published_on_the_controllers_own_odom_topic():
+    # diff_drive_controller.cpp: DEFAULT_ODOMETRY_TOPIC = "~/odom", DEFAULT_TRANSFORM_TOPIC = "/tf"
+    cm = dd_cm()
+    names = {n: t for n, t in cm.node.get_topic_names_and_types()}
+    assert names.get("/dd/odom") == ["nav_msgs/msg/Odometry"]
+    assert "/odom" not in names and names.get("/tf") == ["tf2_msgs/msg/TFMessage"]
+
+
+def test_cmd_vel_timeout_zero_disables_the_timeout():
+    # diff_drive_controller.cpp update(): "A cmd_vel_timeout of 0.0 disables the timeout." (and the subscription
+    # callback keeps a message of any age when the timeout is 0)
+    cm = dd_cm({"cmd_vel_timeout": "0.0"})
+    send(cm, 0.5, 0.0, stamp=0.0)
+    cm.step(300)                                   # 3 s without a new command
+    assert wheel_cmds(cm) == pytest.approx((5.0, 5.0))
+    send(cm, 0.2, 0.0, stamp=0.5)                  # stamped 2.5 s in the past: still taken
+    cm.step(1)
+    assert wheel_cmds(cm) == pytest.approx((2.0, 2.0))

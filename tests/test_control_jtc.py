@@ -582,3 +582,56 @@ def test_effort_only_closes_the_loop_with_the_pid():
     eff = command(cm, "effort")
     # reference one period into a 0.5 s linear segment from 1.1 to 1.6: error 0.01, effort 10 * 0.01
     assert eff == pytest.approx([0.1, 0.0, 0.0], abs=1e-9)
+
+
+# --- issue 30: deactivation and illegal action tolerances as upstream -------------------------------------------
+def test_deactivate_leaves_the_position_command_where_it_is_and_zeroes_velocity():
+    # joint_trajectory_controller.cpp on_deactivate(): each position command is set to its own value, velocity /
+    # acceleration / effort commands to 0.0. With a following offset the state differs from the command, so writing
+    # the state back (the old behaviour here) would move the command by the offset.
+    cm = make_cm(commands=("position", "velocity"), hw_params={"position_state_following_offset": "0.1"})
+    cm.step(1)
+    publish(cm, traj([(0.3, (2.0, 2.0, 2.0), (0.0, 0.0, 0.0))]))
+    cm.step(15)                                  # mid-trajectory: commands move, velocities nonzero
+    before = command(cm)
+    assert any(abs(v) > 0 for v in command(cm, "velocity"))
+    assert cm.switch_controller([], ["jtc"], STRICT) == return_type.OK
+    assert command(cm) == before
+    assert command(cm, "velocity") == [0.0, 0.0, 0.0]
+    assert positions(cm) != pytest.approx(before)           # the offset is real: state != command
+
+
+@pytest.mark.parametrize("path, goal, goal_time, logged", [
+    ([JointTolerance(name="joint1", position=-0.5)], [], 0.0,
+     "joint 'joint1' specified in goal.path_tolerance has a invalid position tolerance. Using default tolerances."),
+    ([], [JointTolerance(name="joint3", velocity=-2.0)], 0.0,
+     "joint 'joint3' specified in goal.goal_tolerance has a invalid velocity tolerance. Using default tolerances."),
+    ([JointTolerance(name="joint9", position=0.05)], [], 0.0,
+     "joint 'joint9' specified in goal.path_tolerance does not exist. Using default tolerances."),
+    ([], [], -0.5, "Specified illegal goal_time_tolerance: -0.500000. Using default tolerances"),
+])
+def test_illegal_action_tolerances_fall_back_to_the_defaults_for_the_whole_goal(path, goal, goal_time, logged):
+    # tolerances.hpp get_segment_tolerances() / resolve_tolerance_source(): a negative tolerance other than -1, or a
+    # joint the controller does not have, logs an error and the goal runs with the default tolerances (it is not
+    # rejected). The goal also carries a legal joint2 path tolerance (0.05 under a 0.1 following offset) that
+    # would abort it if it were applied: with the defaults (0 = not checked) it succeeds.
+    cm = make_cm(hw_params={"position_state_following_offset": "0.1"})
+    c = Client(cm)
+    h = c.send(traj([(0.2, (3.0, 3.0, 3.0))]), path=[JointTolerance(name="joint2", position=0.05), *path],
+               goal=goal, goal_time=goal_time)
+    assert h.accepted and jtc(cm).rejections == []
+    cm.step(60)
+    assert c.outcome() == (GoalStatus.STATUS_SUCCEEDED, Result.SUCCESSFUL, "Goal successfully reached!")
+    assert cm.log.count(logged) == 1
+
+
+def test_erase_value_minus_one_turns_a_default_tolerance_off():
+    # resolve_tolerance_source(): -1 erases the default (0 = not checked); a legal goal tolerance still applies
+    cm = make_cm(params={"constraints.joint2.trajectory": "0.05"}, hw_params={"position_state_following_offset": "0.1"})
+    c = Client(cm)
+    c.send(traj([(0.2, (3.0, 3.0, 3.0))]), path=[JointTolerance(name="joint2", position=-1.0)])
+    cm.step(60)
+    assert c.outcome()[:2] == (GoalStatus.STATUS_SUCCEEDED, Result.SUCCESSFUL)
+    c.send(traj([(0.2, (1.0, 1.0, 1.0))]))           # no goal tolerances: the 0.05 default aborts it
+    cm.step(60)
+    assert c.outcome()[:2] == (GoalStatus.STATUS_ABORTED, Result.PATH_TOLERANCE_VIOLATED)

@@ -209,7 +209,7 @@ def test_grading_package_imports_no_chapter_by_name(root):
                 assert not isinstance(node.args[0], ast.JoinedStr), f"{path.name} imports by pattern"
     found = {c.module for c in checks.discover().values() if c.module.startswith("robocourse.")}
     lib = root / "lib"
-    on_disk = {".".join(p.relative_to(lib).with_suffix("").parts) for p in (lib / "robocourse").glob("**/checks.py")
+    on_disk = {".".join(p.relative_to(lib).with_suffix("").parts) for p in (lib / "robocourse").glob("**/*checks.py")
                if p.parent.name != "grading"}
     assert on_disk == found
     assert found >= {"robocourse.setup_check.checks", "robocourse.rt.checks",

@@ -15,6 +15,7 @@ create cgroups (root here); elsewhere the documented fallback is asserted instea
 from __future__ import annotations
 
 import csv
+import json
 import os
 import subprocess
 import sys
@@ -269,6 +270,17 @@ def test_a_rerun_with_changed_options_grades_again_and_says_why(tmp_path):
     assert "graded again although journaled, because what grades them changed (2)" in changed.stdout
     assert "time_limit 60.0 -> 90.0" in changed.stdout
     assert [r["total"] for r in csv.DictReader(out.open())] == ["5", "5"]
+    if resources.mode() == "polling":
+        return  # no cgroup here: a polled row is all this machine can give, and is reused
+    # a row whose cgroup could not be made that time (polled limits, the fallback) is graded again now
+    journal = Path(f"{out}.journal.jsonl")
+    lines = [json.loads(line) for line in journal.read_text().splitlines()]
+    lines[-1]["grade"]["resources"] = "polling: 600 MB of resident memory; the cgroup could not be made (test)"
+    journal.write_text("".join(json.dumps(e) + "\n" for e in lines))
+    again, _ = _cli(base + ["--time-limit", "90"])
+    assert "graded again although journaled, because what grades them changed (1)" in again.stdout, again.stdout
+    assert "its limits were only polled then (polling: 600 MB" in again.stdout
+    assert "reused from the journal" in again.stdout and [r["total"] for r in csv.DictReader(out.open())] == ["5", "5"]
 
 
 def test_resources_confine_a_process_to_its_cpu_slot():

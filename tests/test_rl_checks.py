@@ -65,7 +65,8 @@ def test_scripted_arm_serves_ticks_on_its_trajectory_and_records_commands():
     assert got[3].position[names.index("finger_joint")] == arm.state(0)[0][names.index("finger_joint")]  # still
     rec = arm.record()
     assert rec["ticks"] == 5 and sorted(rec["commands"]) == ["0", "1", "2", "3", "4"] and rec["bad_commands"] == []
-    assert rec["served"][0][2] > 0 and rec["served"][4][1] - rec["served"][0][1] == pytest.approx(0.02, abs=0.015)
+    walls = [r[1] for r in rec["served"]]
+    assert rec["served"][0][2] > 0 and walls == sorted(walls)          # when each tick was served, in order
     arm2 = ScriptedArm(JOINTS, names, JOINTS, max_ticks=3)
     arm2.command([0.0] * 6)
     arm2.wait_for_tick()

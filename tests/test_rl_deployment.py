@@ -84,14 +84,30 @@ def test_dead_policy_with_damping_safe_mode_switches_to_effort_minus_kd_dq():
                          safe_mode="damping")
     d.run_simulated(1.2)
     assert d.cm.controllers[EFFORT_CONTROLLER].state == ACTIVE
-    np.testing.assert_allclose(d.sim.commands[:6], -8.0 * d._dq, atol=1e-9)
+    np.testing.assert_allclose(d.sim.commands[:6], -d.damping_kds * d._dq, atol=1e-9)
 
 
 def test_exit_damping_after_the_run():
     d = PolicyDeployment(NumpyRuntime(ik_policy()), CFG, target=tcp0(), move_s=0.2)
     tr = d.run_simulated(0.6, exit_damping_s=0.1)
     assert tr.phase[-1] == "damping" and d.cm.controllers[EFFORT_CONTROLLER].state == ACTIVE
-    np.testing.assert_allclose(d.sim.commands[:6], -8.0 * d._dq, atol=1e-9)
+    np.testing.assert_allclose(d.sim.commands[:6], -d.damping_kds * d._dq, atol=1e-9)
+
+
+def test_damping_gain_is_capped_per_joint_where_a_once_per_tick_damping_stays_stable():
+    # kd 8 from a velocity sampled at 500 Hz is unstable on the light wrist_3 (M ~ 0.003 kg m^2):
+    # its velocity flipped sign on a third of the ticks and reached 31 rad/s before the cap
+    d = PolicyDeployment(NumpyRuntime(ik_policy()), CFG, target=tcp0(), zero_torque_s=0.0, move_s=0.3)
+    np.testing.assert_array_equal(d.damping_kds[:4], 8.0)             # the heavy joints keep unitree's kd 8
+    assert 0.3 < d.damping_kds[5] < 1.5 and d.damping_kds[4] < 8.0    # wrist_3 and wrist_2 capped at M / (2 dt)
+    tr = d.run_simulated(1.0, exit_damping_s=0.3)
+    damp = np.array([p == "damping" for p in tr.phase])
+    dq = tr.dq[damp]
+    flips = (np.sign(dq[1:]) != np.sign(dq[:-1])).mean(axis=0)
+    assert flips.max() < 0.1, flips
+    assert np.abs(dq[:, 3:]).max() < 1.0                               # wrists: no chatter growing
+    with pytest.raises(ValueError, match="damping_kd=-1.0 must be a finite gain >= 0"):
+        PolicyDeployment(NumpyRuntime(ik_policy()), CFG, damping_kd=-1.0)
 
 
 def test_targets_beyond_the_torque_limit_are_clipped_and_counted():

@@ -69,6 +69,31 @@ def test_a_car_driving_on_the_floor_is_seen_from_above_and_fills_the_view():
     assert scene.grid_spacing <= 0.1 and scene.scale_length <= 0.5
 
 
+def test_the_closest_heading_frames_a_turning_drive_the_same_whichever_way_it_started():
+    """Chapter 3's recorded teleop drive: a turn has no main axis, so the automatic view followed
+    the car's starting heading and, in a wide notebook view, saw the drive end-on from twice as far
+    (the car at 0.6 % of the screenshot instead of 3 %). closest_direction picks the heading that
+    puts the camera closest, never farther than the automatic choice; rotating the drive on the floor
+    changes that distance by a tenth at most (frame_motion aims at the centre of the world-aligned
+    box around the drive, which rotates with it), where the automatic view's changed by a third."""
+    k = np.linspace(0.0, 1.0, 60)
+    drive = np.c_[0.5 * k, 0.35 * np.sin(2.5 * k) ** 2, np.full_like(k, 0.03)]     # forward, then a curve
+    aspect = 800 / 380                                   # a notebook cell 380 px tall
+    dists = []
+    for yaw in np.linspace(0.0, 2 * math.pi, 13)[:-1]:
+        c, s = math.cos(yaw), math.sin(yaw)
+        pts = drive @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        d = framing.closest_direction(pts, pad=0.1, aspect=aspect)
+        assert math.isclose(math.degrees(math.asin(d[2])), 55.0)               # from above, as a floor drive is seen
+        pos, target = framing.frame_motion(pts, pad=0.1, aspect=aspect, direction=d)
+        dists.append(float(np.linalg.norm(pos - target)))
+        auto_pos, auto_target = framing.frame_motion(pts, pad=0.1, aspect=aspect)
+        assert dists[-1] <= float(np.linalg.norm(auto_pos - auto_target)) * (1 + 1e-6)
+    assert max(dists) / min(dists) < 1.12, dists
+    with pytest.raises(ValueError, match="elevation_deg=90"):
+        framing.closest_direction(drive, elevation_deg=90)
+
+
 def test_a_camera_set_by_hand_is_kept_and_the_orbit_target_is_written_for_the_viewer():
     scene = cartpole_scene(0.5)
     scene.set_camera((1.0, -3.0, 1.0), target=(0.5, 0.0, 0.5))

@@ -101,7 +101,11 @@ def test_topic_from_another_process_arrives_in_order_with_values(ctx, endpoint, 
 
 def test_remote_nodes_and_endpoints_appear_in_the_graph_with_qos(ctx, endpoint, spawn):
     spawn(*_peer("talker", endpoint))
-    assert ctx.transport.wait_for(lambda t: len(t.remote_entities("SS")) == 1, 20)
+    assert ctx.transport.wait_for(
+        lambda t: any(e.topic == "/add_two_ints" for e in t.remote_entities("SS")), 20)
+    # the talker's node also serves its parameter services, as a ROS 2 node does
+    assert ctx.transport.wait_for(
+        lambda t: any(e.topic == "/talker/get_parameters" for e in t.remote_entities("SS")), 20)
     assert "/talker" in ros2.node_list(ctx, quiet=True)
     assert ("/chatter", ["std_msgs/msg/String"]) in ros2.topic_list(ctx, quiet=True)
     assert ("/add_two_ints", ["example_interfaces/srv/AddTwoInts"]) in \

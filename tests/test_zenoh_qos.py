@@ -30,6 +30,12 @@ def two():
     r.close()
 
 
+def _remote(transport, kind, topic):
+    """The other context's endpoints of ``kind`` on ``topic`` (every node also has its
+    /rosout and /parameter_events publishers and its parameter services, as in ROS 2)."""
+    return [e for e in transport.remote_entities(kind) if e.topic == topic]
+
+
 def _spin(ctx, node, cond, timeout=10.0):
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(node)
@@ -85,8 +91,8 @@ def test_best_effort_and_depth_travel_in_the_token(two):
     a, b = two
     be = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT)
     a.create_node("sensor").create_publisher(Int32, "/scan", be)
-    assert b.transport.wait_for(lambda t: t.remote_entities("MP"))
-    [e] = b.transport.remote_entities("MP")
+    assert b.transport.wait_for(lambda t: _remote(t, "MP", "/scan"))
+    [e] = _remote(b.transport, "MP", "/scan")
     assert e.key.endswith("/2::,5:,:,:,,")
     assert (e.qos.reliability, e.qos.depth) == (ReliabilityPolicy.BEST_EFFORT, 5)
 
@@ -97,9 +103,9 @@ def test_destroyed_publisher_token_is_withdrawn_and_sends_nothing(two):
     pub = na.create_publisher(Int32, "/n", 10)
     got = []
     nb.create_subscription(Int32, "/n", lambda m: got.append(m.data), 10)
-    assert b.transport.wait_for(lambda t: t.remote_entities("MP"))
+    assert b.transport.wait_for(lambda t: _remote(t, "MP", "/n"))
     na.destroy_publisher(pub)
-    assert b.transport.wait_for(lambda t: not t.remote_entities("MP"))
+    assert b.transport.wait_for(lambda t: not _remote(t, "MP", "/n"))
     assert pub._remote is None and pub._deliver == ()
 
 
@@ -136,7 +142,7 @@ def test_congestion_control_and_reliability_on_the_wire(two):
              "ka_be": (KEEP_ALL, BEST_EFFORT), "kl_be": (KEEP_LAST, BEST_EFFORT)}
     pubs = {k: node.create_publisher(Int32, f"/{k}", QoSProfile(depth=5, history=h, reliability=r))
             for k, (h, r) in cases.items()}
-    assert b.transport.wait_for(lambda t: len(t.remote_entities("MP")) == 4)
+    assert b.transport.wait_for(lambda t: sum(len(_remote(t, "MP", f"/{k}")) for k in cases) == 4)
     deadline = time.monotonic() + 10
     while len(seen) < 4 and time.monotonic() < deadline:
         for p in pubs.values():

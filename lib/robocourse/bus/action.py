@@ -7,7 +7,12 @@ topics (``<name>/_action/feedback``, ``<name>/_action/status`` with KEEP_LAST 1,
 TRANSIENT_LOCAL), so introspection shows them.
 
 Defaults as in rclpy: every goal is accepted, ``handle_accepted_callback`` calls
-``goal_handle.execute()``, every cancel request is REJECTED. The goal state machine allows only
+``goal_handle.execute()``, every cancel request is REJECTED. A goal callback that returns
+anything but a ``GoalResponse`` rejects the goal with a warning (the client just sees it
+rejected); a cancel callback that returns anything but ``CancelResponse.ACCEPT`` rejects the
+cancel. A deferred goal (its ``handle_accepted_callback`` keeps the handle) whose cancel is
+accepted before ``execute()`` still executes: it stays CANCELING and its execute callback
+ends it (``canceled()``), as rclpy. The goal state machine allows only
 ACCEPTED -execute-> EXECUTING; ACCEPTED/EXECUTING -cancel-> CANCELING; EXECUTING/CANCELING
 -succeed-> SUCCEEDED, -abort-> ABORTED; CANCELING -canceled-> CANCELED. Anything else raises
 :class:`InvalidGoalTransition`. An execute callback that returns while the goal is still active
@@ -138,7 +143,11 @@ class ServerGoalHandle:
         self._server._on_state_change(self)
 
     def execute(self, execute_callback=None) -> None:
-        self._update_state(GoalEvent.EXECUTE)
+        """Run the execute callback. As rclpy: a goal whose cancel was accepted before
+        ``execute()`` stays CANCELING (no EXECUTE transition) and the callback still runs, so
+        it can see ``is_cancel_requested`` and call ``canceled()``."""
+        if not self.is_cancel_requested:
+            self._update_state(GoalEvent.EXECUTE)
         self._server._start_execute(self, execute_callback or self._server._execute_callback)
 
     def publish_feedback(self, feedback) -> None:
@@ -228,7 +237,15 @@ class ActionServer:
             response.accepted = False
             return response
         decision = self._goal_callback(request.goal)
-        if GoalResponse(decision) != GoalResponse.ACCEPT:
+        if not isinstance(decision, GoalResponse):
+            # rclpy: anything but a GoalResponse rejects the goal (a warning, no error)
+            self._node.get_logger().warning(
+                f"Goal request callback did not return a GoalResponse type. Rejecting goal. "
+                f"(action '{self._action_name}': it returned {decision!r:.60}; return "
+                f"GoalResponse.ACCEPT or GoalResponse.REJECT)")
+            response.accepted = False
+            return response
+        if decision != GoalResponse.ACCEPT:
             response.accepted = False
             return response
         stamp = self._node.get_clock().now()
@@ -267,7 +284,9 @@ class ActionServer:
             if h.status == GoalStatus.STATUS_CANCELING:
                 response.goals_canceling.append(GoalInfo(goal_id=h.goal_id, stamp=h._stamp.to_msg()))
                 continue
-            if CancelResponse(self._cancel_callback(h)) == CancelResponse.ACCEPT:
+            decision = self._cancel_callback(h)
+            # rclpy: only CancelResponse.ACCEPT accepts; anything else is a rejection
+            if isinstance(decision, CancelResponse) and decision == CancelResponse.ACCEPT:
                 h._update_state(GoalEvent.CANCEL_GOAL)
                 response.goals_canceling.append(GoalInfo(goal_id=h.goal_id, stamp=h._stamp.to_msg()))
         response.return_code = (CancelGoal.Response.ERROR_NONE if response.goals_canceling

@@ -10,6 +10,7 @@ true) driven by the executor; ``Context()`` uses the system clock.
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import weakref
 
@@ -97,6 +98,8 @@ class Context:
         self._graph_listeners = []
         self._on_shutdown = []
         self.graph_version = 0
+        self._batching = 0
+        self._batched = False
         self.transport = None
         if transport == "zenoh":
             from robocourse.bus.zenoh.transport import ZenohTransport
@@ -139,8 +142,29 @@ class Context:
     # ----------------------------------------------------------------- graph changes
     def _changed(self):
         self.graph_version += 1
+        if self._batching:
+            self._batched = True
+            return
         for cb in list(self._graph_listeners):
             cb()
+
+    @contextlib.contextmanager
+    def _graph_batch(self):
+        """Tell graph listeners (the zenoh transport's sync) once, after a node made its
+        built-in publishers and services, instead of once per entity."""
+        with self._lock:
+            self._batching += 1
+        try:
+            yield
+        finally:
+            with self._lock:
+                self._batching -= 1
+                fire = not self._batching and self._batched
+                if fire:
+                    self._batched = False
+            if fire:
+                for cb in list(self._graph_listeners):
+                    cb()
 
     def add_graph_listener(self, callback) -> None:
         self._graph_listeners.append(callback)
@@ -341,7 +365,7 @@ class Context:
     def _add_service(self, srv):
         with self._lock:
             e = self._service_entry(srv.srv_name, srv.srv_type, srv._node, "service server")
-            if e.servers:
+            if e.servers and not srv._builtin:   # duplicate node names: the node warned already
                 srv._node.get_logger().warning(
                     f"service {srv.srv_name!r} already has a server in node "
                     f"{e.servers[0]._node.get_fully_qualified_name()!r}; requests go to the "

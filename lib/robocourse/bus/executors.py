@@ -16,8 +16,22 @@ One thread spins an executor at a time (rclpy >= PR #1510, rclcpp's ``spinning``
 spin call while another thread is inside one raises ``RuntimeError("Executor is already
 spinning ...")``; the claim is released on every exit, exceptions included.
 
-Differences from rclpy: a callback that raises is logged with its topic and node and recorded
-in ``executor.callback_errors``; the executor keeps spinning (rclpy re-raises out of spin).
+A callback that raises, as in rclpy: the exception propagates out of the spin call that ran
+it (``spin``, ``spin_once``, ``spin_until_future_complete``, ``spin_for``, ...); the executor
+stays usable and the next spin call goes on with the remaining work. This holds for timer,
+subscription, service and event callbacks, tasks (``create_task``, a future's done callback)
+and ``async def`` callbacks, whenever their coroutine fails. Nothing is lost either way: each
+one is also recorded in ``executor.callback_errors`` (and ``context.callback_errors``) with
+its topic and node. Action execute callbacks are the exception, as in rclpy: a raising execute
+callback aborts the goal and the server logs it.
+
+``Executor(on_callback_error="log")`` is the one documented choice otherwise (a robocourse
+addition, for long demos that must outlive a faulty callback): the error is logged with its
+topic and node, recorded, and spinning goes on. A service callback that raises also fails the
+waiting client's future with a ServiceCallbackError (rclpy leaves the client waiting).
+A MultiThreadedExecutor stops its pool at the first failure and re-raises it from the spin
+call once the callbacks still running have finished (rclpy raises it from a later
+``spin_once``).
 """
 
 from __future__ import annotations
@@ -69,9 +83,13 @@ class CallbackError:
 class Executor:
     """Base class; use :class:`SingleThreadedExecutor` or :class:`MultiThreadedExecutor`."""
 
-    def __init__(self, *, context=None):
+    def __init__(self, *, context=None, on_callback_error: str = "raise"):
         from robocourse.bus.context import get_default_context
 
+        if on_callback_error not in ("raise", "log"):
+            raise ValueError(f"on_callback_error={on_callback_error!r} must be 'raise' (rclpy: the "
+                             f"exception leaves spin) or 'log' (log it, keep spinning)")
+        self.on_callback_error = on_callback_error
         self._context = context if context is not None else get_default_context(create=False)
         self._nodes = []
         self._timers = []
@@ -309,31 +327,38 @@ class Executor:
     def _run(self, ent, work):
         prev = getattr(_tls, "current", None)
         _tls.current = (self, ent)
+        failed = None
         try:
             out = ent._execute(work)
             if out is not None and hasattr(out, "send") and hasattr(out, "throw"):
-                # an `async def` callback: run it as a task, like rclpy's executor does
+                # an `async def` callback: run it as a task, like rclpy's executor does; its
+                # later steps come back here as the task itself
                 task = Task(lambda c=out: c, executor=self, callback_group=ent.callback_group)
                 task._node = getattr(ent, "_node", None)
-
-                def report(f, ent=ent):
-                    if f.exception() is not None:
-                        self._report(ent, f.exception(), tb=False)
-
-                report._immediate = True
-                task.add_done_callback(report)
+                task._origin = ent
                 task()
-        except Exception as exc:  # noqa: BLE001 - reported, executor keeps running
-            self._report(ent, exc)
+                ent = task
+            if isinstance(ent, Task) and ent.done() and ent._exception is not None \
+                    and not ent._reported:
+                ent._reported = True
+                failed = (getattr(ent, "_origin", ent), ent._exception, False)
+        except Exception as exc:  # noqa: BLE001 - recorded, then raised (or logged) by _report
+            failed = (ent, exc, True)
         finally:
             _tls.current = prev
+        if failed is not None:
+            self._report(*failed)
 
     def _report(self, ent, exc, tb=True):
+        """Record a callback's exception; raise it (rclpy) or log it (``on_callback_error="log"``)."""
         where = ent._describe() if hasattr(ent, "_describe") else repr(ent)
-        text = traceback.format_exc() if tb else "".join(
-            traceback.format_exception(type(exc), exc, exc.__traceback__))
+        text = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
         err = CallbackError(where, exc, text)
         self.callback_errors.append(err)
+        if self._context is not None:
+            self._context.callback_errors.append(err)
+        if self.on_callback_error == "raise":
+            raise exc
         node = getattr(ent, "_node", None)
         msg = f"Exception in {where}: {type(exc).__name__}: {exc}\n{text.rstrip()}"
         if node is not None:
@@ -342,8 +367,6 @@ class Executor:
             from robocourse.bus.logging import RcutilsLogger
 
             RcutilsLogger("executor", self._context).error(msg)
-        if self._context is not None:
-            self._context.callback_errors.append(err)
 
     def spin_once(self, timeout_sec: float | None = None) -> None:
         """Run at most one callback, waiting up to ``timeout_sec`` (None: until work)."""
@@ -507,8 +530,8 @@ class Executor:
 class SingleThreadedExecutor(Executor):
     """rclpy.executors.SingleThreadedExecutor: callbacks run one at a time on the spinning thread."""
 
-    def __init__(self, *, context=None):
-        super().__init__(context=context)
+    def __init__(self, *, context=None, on_callback_error: str = "raise"):
+        super().__init__(context=context, on_callback_error=on_callback_error)
         # the wake-up signal: a plain lock held while unsignalled (release = set, a
         # successful acquire = wait + clear). Same semantics as threading.Event's
         # set/wait/clear, but one C call on each side instead of a Condition's Python code:
@@ -542,10 +565,11 @@ class MultiThreadedExecutor(Executor):
     at the same time, so parallelism needs ReentrantCallbackGroup or several groups.
     """
 
-    def __init__(self, num_threads: int | None = None, *, context=None):
+    def __init__(self, num_threads: int | None = None, *, context=None,
+                 on_callback_error: str = "raise"):
         if num_threads is not None:
             _args.integer(num_threads, "MultiThreadedExecutor", "num_threads", 1)
-        super().__init__(context=context)
+        super().__init__(context=context, on_callback_error=on_callback_error)
         import os
 
         self._num_threads = num_threads or max(2, os.cpu_count() or 2)
@@ -553,6 +577,7 @@ class MultiThreadedExecutor(Executor):
         self._workers = []
         self._stop = False
         self._session = None
+        self._failure = None        # the first callback exception of a pool run, re-raised by spin
 
     @property
     def num_threads(self) -> int:
@@ -636,7 +661,15 @@ class MultiThreadedExecutor(Executor):
                         self._cond.wait(0.01)
                     continue
                 self._running += 1
-            self._run_claimed(*item)
+            try:
+                self._run_claimed(*item)
+            except Exception as exc:  # noqa: BLE001 - handed to the spinning thread
+                with self._cond:
+                    if self._failure is None:
+                        self._failure = exc
+                    self._stop = True
+                    self._cond.notify_all()
+                return
 
     def _run_claimed(self, ent, work):
         """Run one item taken under the lock (counted in ``_running``), then release its group."""
@@ -658,6 +691,7 @@ class MultiThreadedExecutor(Executor):
             with self._cond:
                 self._session = session
                 self._stop = False
+                self._failure = None
             self._done_flag = done_flag
             threads = [threading.Thread(target=self._worker, args=(until_ns, done_flag, session),
                                         name=f"robocourse-executor-{i}", daemon=True)
@@ -668,17 +702,28 @@ class MultiThreadedExecutor(Executor):
                 # rclpy returns from spin_until_future_complete as soon as the future is done;
                 # callbacks still running on the pool finish on their own threads
                 with self._cond:
-                    while not done_flag() and any(t.is_alive() for t in threads):
+                    while not done_flag() and self._failure is None \
+                            and any(t.is_alive() for t in threads):
                         self._cond.wait(0.05)
                     self._stop = True
                     self._cond.notify_all()
+                if self._failure is not None:
+                    for t in threads:       # the callbacks still running finish first
+                        t.join()
+                    self._raise_failure()
                 return
             for t in threads:
                 t.join()
+            self._raise_failure()
         finally:
             self._done_flag = None
             if not claimed:
                 self._leave()
+
+    def _raise_failure(self):
+        exc, self._failure = self._failure, None
+        if exc is not None:
+            raise exc
 
     def spin_once(self, timeout_sec: float | None = None) -> None:
         timeout_sec = _check_timeout(timeout_sec, "spin_once")

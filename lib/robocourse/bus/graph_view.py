@@ -5,6 +5,10 @@ the SVG (``_repr_svg_``). Nodes are ellipses, topics boxes, arrows go publisher 
 subscriber; an incompatible-QoS pair is drawn as a red dashed arrow labelled with the policy.
 Actions are drawn as one box per action (client -> action -> server) instead of their five
 hidden topics and services. Layout: columns by data-flow depth, no external tools needed.
+
+Every node's own topics stay out of the picture as rqt_graph leaves them out by default:
+``/rosout`` (and ``/clock``, ``/statistics``) by its "Debug" filter, ``/parameter_events`` by
+its "Dead sinks" filter unless some visible node subscribes to it.
 """
 
 from __future__ import annotations
@@ -12,6 +16,9 @@ from __future__ import annotations
 from html import escape
 
 from robocourse.bus.introspection import ACTION_MARK
+
+#: topics rqt_graph's default "Debug" filter hides (its QUIET_NAMES that name topics)
+DEBUG_TOPICS = ("/rosout", "/clock", "/statistics")
 
 
 class GraphPicture:
@@ -23,6 +30,9 @@ class GraphPicture:
 
     def _repr_svg_(self):
         return self.svg
+
+    def __repr__(self) -> str:          # a text-only view (a saved notebook's text, a terminal): what it shows
+        return f"<rqt_graph picture: {len(self.nodes)} nodes, {len(self.topics)} topics, {len(self.edges)} arrows (SVG)>"
 
     def save(self, path) -> str:
         with open(path, "w") as f:
@@ -40,11 +50,11 @@ def graph_edges(ctx, include_hidden: bool = False):
     node_set = set(nodes)
     topics, edges = [], []
     for t in sorted(ctx._topics.values(), key=lambda t: t.name):
-        if ACTION_MARK in t.name or not (t.pubs or t.subs):
+        if ACTION_MARK in t.name or not (t.pubs or t.subs) or t.name in DEBUG_TOPICS:
             continue
         pubs = [p for p in t.pubs if p._node.get_fully_qualified_name() in node_set]
         subs = [s for s in t.subs if s._node.get_fully_qualified_name() in node_set]
-        if not pubs and not subs:
+        if not pubs and not subs or (t.name == "/parameter_events" and not subs):
             continue
         topics.append(t.name)
         for p in pubs:

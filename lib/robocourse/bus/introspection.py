@@ -378,7 +378,9 @@ def node_info(ctx, node_name: str, *, quiet: bool = False) -> dict:
     info = {
         "Subscribers": sorted({(s.topic_name, s.msg_type._type) for s in node.subscriptions
                                if ACTION_MARK not in s.topic_name}),
-        "Publishers": sorted({(p.topic_name, p.msg_type._type) for p in node.publishers
+        "Publishers": sorted({(p.topic_name, p.msg_type._type) for p in
+                              node.publishers + ([node._rosout_publisher]
+                                                 if node._rosout_publisher is not None else [])
                               if ACTION_MARK not in p.topic_name}),
         "Service Servers": sorted({(s.srv_name, s.srv_type._type) for s in node.services
                                    if ACTION_MARK not in s.srv_name}),

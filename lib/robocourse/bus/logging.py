@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
 from dataclasses import dataclass
 from enum import IntEnum
 
@@ -115,15 +116,63 @@ def console_line(rec: LogRecord, stream) -> str:
     return f"{code}{rec}{RESET}" if code else str(rec)
 
 
+_THIS_FILE = __file__
+_publishing = threading.local()
+
+
+def _caller():
+    """(file, function, line) of the code that called the logger (rclpy passes the same)."""
+    f = sys._getframe(2)
+    while f is not None and f.f_code.co_filename == _THIS_FILE:
+        f = f.f_back
+    if f is None:
+        return "", "", 0
+    return f.f_code.co_filename, f.f_code.co_name, f.f_lineno
+
+
 class RcutilsLogger:
+    """A named logger; a node's logger (and its children) also publish each emitted line on
+    the node's /rosout publisher as ``rcl_interfaces/msg/Log`` (rcl_logging_rosout)."""
+
     def __init__(self, name: str, context, clock=None):
         self.name = name
         self._context = context
         self._clock = clock
         self.level = LoggingSeverity.INFO
+        self._rosout = None
+        self._parent = None
 
     def get_child(self, suffix: str) -> RcutilsLogger:
-        return RcutilsLogger(f"{self.name}.{suffix}", self._context, self._clock)
+        child = RcutilsLogger(f"{self.name}.{suffix}", self._context, self._clock)
+        child._parent = self       # a sublogger publishes on its node's /rosout (rcl >= Iron)
+        return child
+
+    def _rosout_publisher(self):
+        logger = self
+        while logger is not None:
+            if logger._rosout is not None:
+                return logger._rosout
+            logger = logger._parent
+        return None
+
+    def _publish_rosout(self, rec: LogRecord) -> None:
+        pub = self._rosout_publisher()
+        if pub is None or pub._destroyed or getattr(_publishing, "active", False):
+            return      # no node, or a log line written while publishing one (no recursion)
+        from robocourse.msgs.builtin_interfaces import Time
+        from robocourse.msgs.rcl_interfaces import Log
+
+        file, function, line = _caller()
+        sec, nsec = divmod(rec.stamp_ns, 1_000_000_000)
+        _publishing.active = True
+        try:
+            pub.publish(Log(stamp=Time(sec=sec, nanosec=nsec), level=int(rec.severity),
+                            name=rec.name, msg=rec.msg, file=file, function=function,
+                            line=line))
+        except Exception:  # noqa: BLE001 - a log line never fails its caller
+            pass
+        finally:
+            _publishing.active = False
 
     def set_level(self, level) -> None:
         self.level = LoggingSeverity(level)
@@ -138,6 +187,8 @@ class RcutilsLogger:
 
         stamp = self._clock.now_ns() if self._clock is not None else time.time_ns()
         rec = LogRecord(LoggingSeverity(severity), self.name, str(msg), stamp)
+        if self._rosout is not None or self._parent is not None:
+            self._publish_rosout(rec)
         ctx = self._context
         if ctx is not None:
             ctx.log_records.append(rec)

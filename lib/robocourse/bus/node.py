@@ -8,9 +8,26 @@ parameter_overrides, allow_undeclared_parameters, automatically_declare_paramete
 ``sleep_async(seconds)`` (an awaitable sleep on the node's clock, handy in coroutine callbacks
 under simulated time) and ``context`` defaulting to the one from :func:`robocourse.bus.init`.
 
+What every node brings, as an rclpy node on Jazzy does (so ``ros2 param``, ``ros2 node info``
+and rqt_console on a real ROS 2 machine see it over the zenoh transport):
+
+- a ``/rosout`` publisher (``rcl_interfaces/msg/Log``, rcl's ``rcl_qos_profile_rosout_default``:
+  KEEP_LAST 1000, RELIABLE, TRANSIENT_LOCAL, lifespan 10 s) carrying every line the node's
+  logger emits (``enable_rosout=False`` turns it off);
+- a ``/parameter_events`` publisher (``rcl_interfaces/msg/ParameterEvent``) announcing every
+  declaration and successful set;
+- the six parameter services (:mod:`robocourse.bus.parameter_service`;
+  ``start_parameter_services=False`` turns them off) and ``~/get_type_description``
+  (:mod:`robocourse.bus.type_description_service`; the read-only parameter
+  ``start_type_description_service`` turns it off).
+
+As in rclpy, ``node.publishers`` lists the /parameter_events publisher but not the /rosout one
+(rcl owns that; ``node_info`` shows both, as ``ros2 node info`` does), and ``node.services``
+lists the built-in services. Differences: the Log message's stamp is the node's clock (rcl
+stamps with system time); no ``/clock`` subscription is made (simulated time is the context's).
+
 Accepted for signature compatibility and ignored (nothing here needs them):
-``start_parameter_services``, ``use_global_arguments``, ``enable_rosout``,
-``qos_overriding_options``, ``publisher_class``.
+``use_global_arguments``, ``qos_overriding_options``, ``publisher_class``.
 
 Duplicate node names: like ROS 2 we allow them and log a warning (ROS warns about the rosout
 logger publisher; ``ros2 node list`` warns about duplicates). Both nodes work; graph queries
@@ -27,19 +44,28 @@ from robocourse.bus.clock import ClockType, ROSClock
 from robocourse.bus.context import get_default_context
 from robocourse.bus.deadline import DeadlineWatch
 from robocourse.bus.logging import RcutilsLogger
+from robocourse.bus.parameter_service import ParameterService
 from robocourse.bus.parameters import Parameter, ParameterDescriptor, ParameterMixin
 from robocourse.bus.publisher import InvalidHandle, Publisher
 from robocourse.bus.qos import (
     INFINITE,
+    DurabilityPolicy,
     LivelinessPolicy,
     QoSLivelinessChangedInfo,
     QoSLivelinessLostInfo,
+    QoSProfile,
     qos_from_arg,
+    qos_profile_parameter_events,
     qos_profile_services_default,
 )
 from robocourse.bus.subscription import Subscription
 from robocourse.bus.task import Future, Task
 from robocourse.bus.timer import Rate, Timer
+from robocourse.bus.type_description_service import TypeDescriptionService
+from robocourse.msgs.rcl_interfaces import Log, ParameterEvent
+
+#: rcl's ``rcl_qos_profile_rosout_default`` (rcl/logging_rosout.h)
+ROSOUT_QOS = QoSProfile(depth=1000, durability=DurabilityPolicy.TRANSIENT_LOCAL, lifespan=10.0)
 
 
 class TopicEndpointInfo:
@@ -94,16 +120,35 @@ class Node(ParameterMixin):
                 f"confuses tools (ros2 node list warns, logs and parameters get mixed up); "
                 f"both nodes keep working here. Give each node a unique name or namespace.")
         self._context.nodes.append(self)
-        from_args = _arguments.parameters_for(self._ros_args, fq)
-        if from_args:   # files and -p first; parameter_overrides win (rclpy's order)
-            given = {p.name for p in parameter_overrides or [] if isinstance(p, Parameter)}
-            parameter_overrides = [Parameter(k, value=v) for k, v in from_args.items() if k not in given] + \
-                list(parameter_overrides or [])
-        self._init_parameters(parameter_overrides, allow_undeclared_parameters,
-                              automatically_declare_parameters_from_overrides)
-        self.declare_parameter("use_sim_time", self._context.use_sim_time,
-                               ParameterDescriptor(description="use simulated time from the context"))
-        self._context._changed()
+        self._parameter_event_publisher = None
+        self._rosout_publisher = None
+        self._parameter_service = None
+        self._type_description_service = None
+        with self._context._graph_batch():
+            if enable_rosout:     # rcl makes it first, before the node's other entities
+                self._rosout_publisher = self._create_rosout_publisher()
+                self._logger._rosout = self._rosout_publisher
+            self._parameter_event_publisher = self.create_publisher(
+                ParameterEvent, "/parameter_events", qos_profile_parameter_events)
+            from_args = _arguments.parameters_for(self._ros_args, fq)
+            if from_args:   # files and -p first; parameter_overrides win (rclpy's order)
+                given = {p.name for p in parameter_overrides or [] if isinstance(p, Parameter)}
+                parameter_overrides = [Parameter(k, value=v) for k, v in from_args.items()
+                                       if k not in given] + list(parameter_overrides or [])
+            self._init_parameters(parameter_overrides, allow_undeclared_parameters,
+                                  automatically_declare_parameters_from_overrides)
+            self.declare_parameter("use_sim_time", self._context.use_sim_time,
+                                   ParameterDescriptor(description="use simulated time from the context"))
+            if start_parameter_services:
+                self._parameter_service = ParameterService(self)
+            self._type_description_service = TypeDescriptionService(self)
+            self._context._changed()
+
+    def _create_rosout_publisher(self):
+        """rcl's per-node /rosout publisher (not in ``self.publishers``, as in rclpy)."""
+        pub = Publisher(self, Log, "/rosout", ROSOUT_QOS, None, self.default_callback_group)
+        self._context._add_publisher(pub)
+        return pub
 
     # ------------------------------------------------------------------ identity
     @property
@@ -343,7 +388,7 @@ class Node(ParameterMixin):
 
     # ------------------------------------------------------------------ services
     def create_service(self, srv_type, srv_name: str, callback, *, qos_profile=qos_profile_services_default,
-                       callback_group=None):
+                       callback_group=None, _builtin=False):
         from robocourse.bus.service import Service
 
         self._check_alive()
@@ -351,6 +396,7 @@ class Node(ParameterMixin):
         name = self.resolve_service_name(srv_name)
         group = callback_group or self.default_callback_group
         srv = Service(self, srv_type, name, callback, qos_profile, group)
+        srv._builtin = _builtin     # a node's own parameter / type description service
         self._context._add_service(srv)
         group.add_entity(srv)
         self._add_entity(srv, self.services)
@@ -390,6 +436,11 @@ class Node(ParameterMixin):
     def destroy_node(self) -> None:
         if self._destroyed:
             return
+        rosout, self._rosout_publisher = self._rosout_publisher, None
+        self._logger._rosout = None
+        if rosout is not None:
+            rosout._destroyed = True
+            self._context._remove_publisher(rosout)
         for w in list(self.waitables):
             if hasattr(w, "destroy"):
                 w.destroy()

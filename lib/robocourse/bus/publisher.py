@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from collections import deque
 
-from robocourse.bus.qos import INFINITE, DurabilityPolicy, HistoryPolicy, _Counts
+from robocourse.bus.qos import INFINITE, DurabilityPolicy, _Counts, effective_depth
 
 
 class InvalidHandle(RuntimeError):
@@ -53,8 +53,7 @@ class Publisher:
         self._lifespan_ns = None if qos.lifespan == INFINITE else int(qos.lifespan * 1e9)
         self._clock = node.get_clock()
         if qos.durability == DurabilityPolicy.TRANSIENT_LOCAL:
-            maxlen = qos.depth if qos.history == HistoryPolicy.KEEP_LAST else None
-            self._history = deque(maxlen=maxlen)
+            self._history = deque(maxlen=effective_depth(qos))
         else:
             self._history = None
         self._alive = True

@@ -17,6 +17,7 @@ or 0 means "infinite/unset" like ``Duration()`` in rclpy.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import IntEnum
@@ -134,11 +135,17 @@ class QoSProfile:
             history = HistoryPolicy.KEEP_LAST
         self.history = _args.policy(history, HistoryPolicy, what, "history")
         if self.history == HistoryPolicy.KEEP_LAST:
-            if depth is None or depth <= 0:
+            if depth is None:
                 raise InvalidQoSProfileException(
-                    f"KEEP_LAST history needs a depth >= 1, got depth={depth!r}; use e.g. "
-                    f"QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10), or KEEP_ALL to keep "
-                    f"every sample")
+                    "History set to KEEP_LAST without a depth setting: use e.g. "
+                    "QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10), or KEEP_ALL to keep "
+                    "every sample")
+            if depth == 0:      # rclpy (Jazzy+) warns and keeps the profile
+                warnings.warn(
+                    f"A zero depth with KEEP_LAST doesn't make sense; no data could be stored. "
+                    f"This will be interpreted as SYSTEM_DEFAULT (rmw_zenoh's depth "
+                    f"{SYSTEM_DEFAULT_DEPTH}). Give a depth >= 1, e.g. QoSProfile(depth=10)",
+                    stacklevel=2)
         self.depth = int(depth) if depth is not None else 0
         self.reliability = _args.policy(reliability, ReliabilityPolicy, what, "reliability")
         self.durability = _args.policy(durability, DurabilityPolicy, what, "durability")
@@ -179,6 +186,19 @@ class QoSProfile:
             f"{indent}Liveliness: {self.liveliness.name}",
             f"{indent}Liveliness lease duration: {_fmt_dur(self.liveliness_lease_duration)}",
         ])
+
+
+#: the depth a KEEP_LAST profile with depth 0 ("system default") gets: rmw_zenoh's default
+#: (``qos.cpp``: ``best_available_qos`` turns depth 0 into 42)
+SYSTEM_DEFAULT_DEPTH = 42
+
+
+def effective_depth(qos: QoSProfile) -> int | None:
+    """How many samples a queue with this profile keeps: ``depth`` for KEEP_LAST (a zero depth
+    means the middleware's default, :data:`SYSTEM_DEFAULT_DEPTH`), None (unbounded) otherwise."""
+    if qos.history != HistoryPolicy.KEEP_LAST:
+        return None
+    return qos.depth or SYSTEM_DEFAULT_DEPTH
 
 
 def qos_from_arg(qos) -> QoSProfile:
@@ -226,19 +246,38 @@ class QoSPresetProfiles:
         return getattr(cls, name.upper()).value
 
 
-@dataclass
-class QoSCheckResult:
-    compatibility: QoSCompatibility
-    reason: str
-    policy: QoSPolicyKind | None = None
+class QoSCheckResult(tuple):
+    """``(compatibility, reason)``, the tuple rclpy's ``qos_check_compatible`` returns
+    (``compat, reason = qos_check_compatible(p, s)``), also readable by name:
+    ``.compatibility``, ``.reason`` and ``.policy`` (the :class:`QoSPolicyKind` that made the
+    pair incompatible, or None; a robocourse addition, rmw reports it in the events)."""
+
+    def __new__(cls, compatibility: QoSCompatibility, reason: str,
+                policy: QoSPolicyKind | None = None):
+        self = super().__new__(cls, (compatibility, reason))
+        self.policy = policy
+        return self
+
+    def __getnewargs__(self):
+        return (self[0], self[1], self.policy)
+
+    @property
+    def compatibility(self) -> QoSCompatibility:
+        return self[0]
+
+    @property
+    def reason(self) -> str:
+        return self[1]
 
 
 def qos_check_compatible(publisher_qos: QoSProfile, subscription_qos: QoSProfile) -> QoSCheckResult:
     """rclpy.qos.qos_check_compatible: the rmw_dds_common table, first mismatch wins.
 
-    Returns ERROR with the ROS reason text for an incompatible pair, WARNING when a
-    SYSTEM_DEFAULT/UNKNOWN value makes the answer depend on the middleware, else OK.
-    A subscription's BEST_AVAILABLE policy adapts to the publisher (always compatible).
+    Returns ``(QoSCompatibility, reason)`` like rclpy: ERROR with the ROS reason text for an
+    incompatible pair, WARNING when a SYSTEM_DEFAULT/UNKNOWN value makes the answer depend on
+    the middleware, else OK with an empty reason. The result also has ``.compatibility``,
+    ``.reason`` and ``.policy``. A subscription's BEST_AVAILABLE policy adapts to the
+    publisher (always compatible).
     """
     p, s = publisher_qos, subscription_qos
     if p.reliability == ReliabilityPolicy.BEST_EFFORT and s.reliability == ReliabilityPolicy.RELIABLE:

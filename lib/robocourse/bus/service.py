@@ -6,9 +6,10 @@ callback)``, ``callback(request, response) -> response``) and ``rclpy.client.Cli
 ``service_is_ready``, ``remove_pending_request``).
 
 Differences, on purpose:
-- If the service callback raises or returns something that is not a Response, the client's
-  future gets a :class:`ServiceCallbackError` and the server keeps serving (rclpy would raise
-  out of the server's spin and leave the client waiting forever).
+- If the service callback raises or returns something that is not a Response, the exception
+  leaves the server's spin call as in rclpy (see :mod:`robocourse.bus.executors`), and the
+  client's future also gets a :class:`ServiceCallbackError` (rclpy leaves the client waiting
+  forever). The service keeps serving the next requests.
 - ``call()`` where ROS would deadlock silently raises :class:`DeadlockError` explaining why:
   inside a callback on a single-threaded executor, inside a callback of the client's own
   mutually exclusive group, or when no executor spins the client's node on another thread.
@@ -83,6 +84,7 @@ class Service(_Queued):
         self.request_count = 0
         self.error_count = 0
         self._raw = False
+        self._builtin = False
 
     @property
     def service_name(self) -> str:
@@ -115,7 +117,7 @@ class Service(_Queued):
                 f"{type(exc).__name__}: {exc}")
             err.__cause__ = exc
             client._respond(future, None, err)
-            return
+            raise       # as rclpy, the exception also leaves the server's spin
         client._respond(future, response._copy(), None)   # the client's own value
 
     def _describe(self):

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections import deque
 
 from robocourse.bus.publisher import _Expiring
-from robocourse.bus.qos import HistoryPolicy, _Counts
+from robocourse.bus.qos import _Counts, effective_depth
 
 
 class Subscription:
@@ -24,7 +24,7 @@ class Subscription:
         self.qos_profile = qos
         self.event_callbacks = event_callbacks
         self.callback_group = callback_group
-        self._maxlen = qos.depth if qos.history == HistoryPolicy.KEEP_LAST else None
+        self._maxlen = effective_depth(qos)
         self._queue = deque(maxlen=self._maxlen)
         self._pubs = []
         self._scheduled = False

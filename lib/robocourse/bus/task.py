@@ -108,6 +108,7 @@ class Task(Future):
         self.callback_group = callback_group
         self._scheduled = False
         self._waiting_on = None
+        self._reported = False      # the executor has reported this task's exception
 
     # -- executor entity protocol --------------------------------------------------------
     def _take_check(self) -> bool:
@@ -120,6 +121,9 @@ class Task(Future):
         self()
 
     def _describe(self) -> str:
+        origin = getattr(self, "_origin", None)
+        if origin is not None and hasattr(origin, "_describe"):
+            return origin._describe()
         return f"task {getattr(self._handler, '__qualname__', self._handler)!r}"
 
     def executing(self) -> bool:
@@ -131,7 +135,11 @@ class Task(Future):
         self._running = True
         try:
             if self._coro is None:
-                out = self._handler(*self._args, **self._kwargs)
+                try:
+                    out = self._handler(*self._args, **self._kwargs)
+                except Exception as exc:  # noqa: BLE001 - kept on the task, as rclpy's Task
+                    self.set_exception(exc)
+                    return
                 if hasattr(out, "send") and hasattr(out, "throw"):
                     self._coro = out
                 else:

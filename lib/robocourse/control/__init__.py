@@ -15,6 +15,9 @@ Mirrors upstream's split:
   between a non-real-time command source (chapter 6's policy) and the control loop.
 """
 
+from . import (
+    introspection,  # ``ros2 control`` verbs: robocourse.control.introspection.list_controllers(cm)
+)
 from .hardware.component import (
     ActuatorInterface,
     HardwareComponentInterface,
@@ -47,5 +50,6 @@ __all__ = [
     "ActuatorInterface", "CallbackReturn", "ChainableControllerInterface", "ControllerInterface",
     "ControllerManager", "HardwareComponentInterface", "HardwareInfo", "InterfaceConfiguration",
     "ResourceError", "ResourceManager", "SensorInterface", "State", "SystemInterface", "URDFError",
-    "interface_configuration_type", "parse_control_resources_from_urdf", "plugin", "register", "return_type",
+    "interface_configuration_type", "introspection", "parse_control_resources_from_urdf", "plugin", "register",
+    "return_type",
 ]

@@ -441,14 +441,18 @@ def _flatten(d: dict, prefix: str = "") -> dict:
 def load_parameter_file(source) -> dict[str, dict]:
     """A ``--params-file`` YAML -> ``{node_name: {dotted.param: value}}``.
 
-    Accepts a path or YAML text. Layout: ``node: {ros__parameters: {...}}``; ``/**`` (any node)
-    is merged under every node that asks (key ``"/**"``); namespaces (``/ns/node``) keep their
-    last component. A node entry without ``ros__parameters`` is an error naming the node and the fix.
+    Accepts a path, YAML text, or the same layout already loaded as a dict. Layout:
+    ``node: {ros__parameters: {...}}``; ``/**`` (any node) is merged under every node that asks
+    (key ``"/**"``); namespaces (``/ns/node``) keep their last component. A node entry without
+    ``ros__parameters`` is an error naming the node and the fix.
     """
-    is_path = isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and (
-        source.endswith((".yaml", ".yml")) or Path(source).is_file()))
-    text = Path(source).read_text() if is_path else source
-    data = yaml.safe_load(text) or {}
+    if isinstance(source, dict):
+        data = source
+    else:
+        is_path = isinstance(source, Path) or (isinstance(source, str) and "\n" not in source and (
+            source.endswith((".yaml", ".yml")) or Path(source).is_file()))
+        text = Path(source).read_text() if is_path else source
+        data = yaml.safe_load(text) or {}
     if not isinstance(data, dict):
         raise ValueError("a ROS 2 parameter file must be a mapping of node names, e.g. "
                          "'controller_manager:\\n  ros__parameters:\\n    update_rate: 100'")
@@ -457,6 +461,9 @@ def load_parameter_file(source) -> dict[str, dict]:
     def visit(d: dict, path: str):
         for key, val in d.items():
             if key == "ros__parameters":
+                if not path:
+                    raise ValueError("'ros__parameters' must sit under a node name: "
+                                     "{'controller_manager': {'ros__parameters': {'update_rate': 100}}}")
                 if not isinstance(val, dict):
                     raise ValueError(f"'ros__parameters' of '{path}' must be a mapping")
                 name = path.rstrip("/").rsplit("/", 1)[-1] if path not in ("/**", "**") else "/**"
@@ -470,6 +477,24 @@ def load_parameter_file(source) -> dict[str, dict]:
     return out
 
 
+def as_parameter_files(params) -> dict[str, dict]:
+    """What a ``params=`` argument may be, as ``{node: {dotted.param: value}}``: a path or YAML text
+    of a ROS 2 parameter file, the same layout as a dict (``{node: {"ros__parameters": {...}}}``),
+    or already per node (``{node: {"update_rate": 100, "jtc.type": ...}}``, nested dicts allowed)."""
+    if params is None:
+        return {}
+    if not isinstance(params, dict):
+        return load_parameter_file(params)
+    if "ros__parameters" in params or any(isinstance(v, dict) and "ros__parameters" in v for v in params.values()):
+        return load_parameter_file(params)
+    for node, values in params.items():
+        if not isinstance(values, dict):
+            raise ValueError(f"params[{node!r}] is {values!r}: give each node a dict of its parameters, "
+                             f"{{{node!r}: {{'ros__parameters': {{...}}}}}} as in a parameter file, or "
+                             f"{{{node!r}: {{'name': value}}}}")
+    return {node: _flatten(values) for node, values in params.items()}
+
+
 def params_for(files: dict[str, dict], node: str) -> dict:
     """Parameters for ``node`` from :func:`load_parameter_file`'s output (``/**`` first, then the node's)."""
     merged = dict(files.get("/**", {}))
@@ -478,5 +503,6 @@ def params_for(files: dict[str, dict], node: str) -> dict:
 
 
 __all__ = ["InvalidParameterTypeException", "InvalidParameterValueException", "ParamListener", "ParamSpec",
-           "ParameterSchema", "ParameterUninitializedException", "Params", "SchemaError", "load_parameter_file",
+           "ParameterSchema", "ParameterUninitializedException", "Params", "SchemaError", "as_parameter_files",
+           "load_parameter_file",
            "params_for"]

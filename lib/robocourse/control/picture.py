@@ -85,7 +85,7 @@ def system_picture(cm) -> SystemPicture:
     y = 40
     ctrl_anchor: dict[str, tuple[float, float]] = {}
     for c in cm.list_controllers():
-        refs = c.reference_interfaces
+        refs = [f"{c.name}/{r}" for r in c.reference_interfaces]   # the service lists them without the prefix
         h = 30 + 16 + ROW * len(refs) + 6
         parts.append(f'<rect x="{CTRL_X}" y="{y}" width="{CTRL_W}" height="{h}" rx="6" '
                      f'fill="{STATE_FILL.get(c.state, "#ddd")}" stroke="#555"/>')

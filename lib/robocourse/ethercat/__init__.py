@@ -4,7 +4,8 @@ Layers, bottom up: ``frames`` (the wire format), ``pcap`` (Wireshark files), ``s
 images), ``esc`` (a slave controller: registers, FMMUs, SyncManagers, AL state machine),
 ``dc`` (distributed clocks), ``devices`` (coupler, digital IO, CiA 402 drive), ``bus`` (the
 chain with delays and injected faults), ``transport`` (in-process or raw Ethernet),
-``master`` (SOEM's bring-up with pysoem's API), ``ros2_control`` (the
+``master`` (SOEM's bring-up with pysoem's API), ``device_files`` (a slave from the user's own SII
+image or vendor ESI XML), ``ros2_control`` (the
 ``robocourse/EthercatSystem`` hardware plugin in ethercat_driver_ros2's shape; importing this
 package declares it with :mod:`robocourse.control.pluginlib`, as a plugin description would).
 

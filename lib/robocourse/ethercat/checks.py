@@ -132,6 +132,10 @@ def _wkc_inputs(rng):
         names = ["RC1100"] + [str(rng.choice(["RC1008", "RC2008", "RC-Servo", "RC1008", "RC2008"]))
                               for _ in range(n - 1)]
         connected = n if b % 2 == 0 else int(rng.integers(1, n))
+        if connected < n:
+            # the first slave past the cut has a DC unit and process data: every kind of datagram
+            # (broadcast, addressed, logical, DC registers) then counts differently with the cut
+            names[connected] = "RC-Servo"
         slaves = [{"position": k, "name": name, "station": 0x1001 + k, "inputs": DEVICES[name][0],
                    "outputs": DEVICES[name][1], "dc": DEVICES[name][2]} for k, name in enumerate(names)]
         image = sum(s["outputs"] + s["inputs"] for s in slaves)
@@ -152,6 +156,10 @@ def _wkc_inputs(rng):
                {"cmd": "LWR", "logical": 0, "length": image}]
         if no_dc is not None:
             dgs.append({"cmd": "FPRD", "adp": no_dc, "ado": 0x0910, "length": 4})
+        if connected < n:  # the slave just past the cut, addressed and asked for its DC time
+            past = 0x1001 + connected
+            dgs += [{"cmd": "FPRD", "adp": past, "ado": 0x0130, "length": 2},
+                    {"cmd": "FPRD", "adp": past, "ado": 0x0910, "length": 4}]
         buses.append({"slaves": slaves, "connected": connected, "datagrams": dgs})
     return {"buses": buses}
 

@@ -7,7 +7,8 @@ with the position/velocity/torque PDOs of the reference) driving a motor model.
 
 Where we differ from the real terminals: our EL1008/EL2008-likes run a firmware state
 machine (checked transitions, SM checks, SM watchdog drops to SAFE_OP) where the real ones use
-device emulation. The drive comes in two builds: without a mailbox (its fixed PDO layout
+device emulation; their PDI control word (0x0004: digital I/O, bit 8 clear) says so, and every
+ESC takes device emulation from that word as a real one does (the coupler's 0x0D00 sets it). The drive comes in two builds: without a mailbox (its fixed PDO layout
 in the SII TxPDO/RxPDO categories, mapped by SOEM's ``ecx_map_sii``) and with a CoE mailbox
 (``mailbox=True``: an object dictionary 0x1000-0x1C13 + the 0x6000 objects it uses, expedited
 SDO only, mapped by SOEM's SDO reads of 0x1C12/0x1C13). The vendor ID is ours, not Beckhoff's.
@@ -74,11 +75,11 @@ COUPLER = DeviceDescription(VENDOR_ID, 0x044C2C52, 0x00110000, "RC1100",
 DIGITAL_INPUTS = DeviceDescription(
     VENDOR_ID, 0x03F03052, 0x00100000, "RC1008", "RC1008 8Ch. Dig. Input 24V (sim)", "DigIn",
     sms=(SyncManagerConfig(0x1000, 0x00, SM_TYPE_INPUTS),), fmmus=(FMMU_INPUTS,),
-    txpdos=_bit_pdos(0x1A00, 0x6000, 0, "Input"), ebus_current_ma=90, pdi_control=0x0104)
+    txpdos=_bit_pdos(0x1A00, 0x6000, 0, "Input"), ebus_current_ma=90, pdi_control=0x0004)
 DIGITAL_OUTPUTS = DeviceDescription(
     VENDOR_ID, 0x07D83052, 0x00100000, "RC2008", "RC2008 8Ch. Dig. Output 24V (sim)", "DigOut",
     sms=(SyncManagerConfig(0x0F00, 0x44, SM_TYPE_OUTPUTS),), fmmus=(FMMU_OUTPUTS,),
-    rxpdos=_bit_pdos(0x1600, 0x7000, 0, "Output"), ebus_current_ma=110, pdi_control=0x0104)
+    rxpdos=_bit_pdos(0x1600, 0x7000, 0, "Output"), ebus_current_ma=110, pdi_control=0x0004)
 _RX = (PdoEntry(0x6040, 0, 16, "Controlword", 0x0006), PdoEntry(0x607A, 0, 32, "Target position", 0x0004),
        PdoEntry(0x60FF, 0, 32, "Target velocity", 0x0004), PdoEntry(0x6071, 0, 16, "Target torque", 0x0003),
        PdoEntry(0x6060, 0, 8, "Modes of operation", 0x0002))
@@ -108,7 +109,7 @@ class Coupler(Esc):
     """EK1100-like bus coupler: no process data; AL status echoes AL control."""
 
     def __init__(self, **kw) -> None:
-        super().__init__(COUPLER, ET1100, device_emulation=True, port_descriptor=0x0B, **kw)
+        super().__init__(COUPLER, ET1100, port_descriptor=0x0B, **kw)   # PDI 0x0D00: bit 8, emulated
 
 
 class DigitalInputs(Esc):

@@ -112,14 +112,17 @@ class Esc:
                  "link", "t_port0", "t_port1", "now_ns", "_fmmus", "_sms", "_holes",
                  "_ro", "_eep_busy", "_eep_err", "_eep_cmd", "_out_write_ns", "_sm_blocked",
                  "_sm_roles", "wd_expired", "_has_outputs", "_wd_ns", "station", "alias_active",
-                 "_mbx_full", "_has_mbx")
+                 "_mbx_full", "_has_mbx", "_emulation_from_pdi")
 
     def __init__(self, desc: DeviceDescription, model: EscModel = ET1100, *,
-                 device_emulation: bool = False, port_descriptor: int = 0x0F,
+                 device_emulation: bool | None = None, port_descriptor: int = 0x0F,
                  drift_ppm: float = 0.0, power_on_ns: float = 0.0) -> None:
         self.desc = desc
         self.model = model
-        self.device_emulation = device_emulation
+        # None: as the ESC itself, from the PDI control word the SII loads into 0x0140 (bit 8,
+        # "emulated device"), at every power-on
+        self._emulation_from_pdi = device_emulation is None
+        self.device_emulation = bool(device_emulation)
         self.mem = bytearray(model.size)
         self.sii = bytearray(build_sii(desc))
         self.clock = LocalClock(drift_ppm, power_on_ns) if model.dc else None
@@ -159,6 +162,8 @@ class Esc:
         _U16.pack_into(mem, REG_ESCSUP, m.features)
         _U16.pack_into(mem, REG_ALIAS, _U16.unpack_from(self.sii, 8)[0])
         _U16.pack_into(mem, REG_PDICTL, _U16.unpack_from(self.sii, 0)[0])
+        if self._emulation_from_pdi:
+            self.device_emulation = bool(mem[REG_PDICTL + 1] & 0x01)
         _U16.pack_into(mem, REG_WD_DIV, 0x09C2)  # 2498 -> (2498 + 2) * 40 ns = 100 us
         _U16.pack_into(mem, REG_WD_TIME_PD, 1000)  # x 100 us = 100 ms
         self._wd_ns = self._watchdog_from_registers()

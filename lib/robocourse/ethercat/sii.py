@@ -7,7 +7,13 @@ The checksum in word 7 is CRC-8 (poly 0x07, init 0xFF) over bytes 0..13.
 
 A PDO layout that cannot work (a PDO on a SyncManager that is not a process-data SM of its
 direction, a map larger than the SM it is assigned to, SM areas overlapping) is refused when
-the description is built, naming the numbers.
+the description is built, naming the numbers. A PDO assigned to no SyncManager (SM byte 0xFF,
+:data:`UNASSIGNED`: the alternative PDOs a drive such as the Kollmorgen AKD lists, assigned
+later over CoE) is kept, takes no process data and is skipped by masters, as SOEM's
+``ecx_siiPDO`` does ("PDO deactivated because SM is 0xff or > EC_MAXSM").
+
+:func:`description_from_sii` reads a whole image (a ``.bin`` dumped from a device) back into a
+:class:`DeviceDescription`; :mod:`robocourse.ethercat.device_files` builds slaves from it.
 """
 
 from __future__ import annotations
@@ -18,6 +24,8 @@ from dataclasses import dataclass, field
 CAT_STRINGS, CAT_GENERAL, CAT_FMMU, CAT_SM = 10, 30, 40, 41
 CAT_TXPDO, CAT_RXPDO, CAT_END = 50, 51, 0xFFFF
 SII_START_WORD = 0x0040
+#: the SM byte of a PDO that no SyncManager carries (SII TxPDO/RxPDO categories, ETG.2010)
+UNASSIGNED = 0xFF
 SM_TYPE_MBX_OUT, SM_TYPE_MBX_IN, SM_TYPE_OUTPUTS, SM_TYPE_INPUTS = 1, 2, 3, 4
 FMMU_UNUSED, FMMU_OUTPUTS, FMMU_INPUTS, FMMU_SYNCM_STATUS = 0, 1, 2, 3
 
@@ -93,17 +101,23 @@ class DeviceDescription:
     eeprom_bytes: int = 2048
     mbx_protocols: int = 0  # SII word 0x001C: 0x0004 = CoE (needs mailbox SMs of type 1 and 2)
     coe_details: int = 0  # general category byte 5: 0x01 SDO, 0x04 PDO assign, 0x20 complete access
+    #: SII words 0..6 (PDI control, PDI configuration, sync impulse, extended PDI configuration,
+    #: alias, reserved) as a device file gives them; empty = from pdi_control and alias
+    config_data: bytes = b""
 
     def __post_init__(self) -> None:
         for what, pdos, want in (("RxPDO", self.rxpdos, SM_TYPE_OUTPUTS),
                                  ("TxPDO", self.txpdos, SM_TYPE_INPUTS)):
             for p in pdos:
+                if p.sm == UNASSIGNED:
+                    continue
                 if not 0 <= p.sm < len(self.sms) or self.sms[p.sm].sm_type != want:
                     raise DescriptionError(
                         f"{self.name}: {what} 0x{p.index:04X} is assigned to SM{p.sm}, which is "
                         f"not an {'output' if want == SM_TYPE_OUTPUTS else 'input'} SyncManager "
                         f"(type {want}); assign it to one of "
-                        f"{[i for i, s in enumerate(self.sms) if s.sm_type == want]}")
+                        f"{[i for i, s in enumerate(self.sms) if s.sm_type == want]}, or to "
+                        f"none (sm=0xFF) for a PDO assigned later over CoE")
         for i, sm in enumerate(self.sms):
             need = self.sm_pdo_bytes(i)
             if sm.length is not None and need > sm.length:
@@ -134,11 +148,12 @@ class DeviceDescription:
 
     @property
     def output_bits(self) -> int:
-        return sum(p.bits for p in self.rxpdos)
+        """Bits of the RxPDOs a SyncManager carries (unassigned ones take none)."""
+        return sum(p.bits for p in self.rxpdos if p.sm != UNASSIGNED)
 
     @property
     def input_bits(self) -> int:
-        return sum(p.bits for p in self.txpdos)
+        return sum(p.bits for p in self.txpdos if p.sm != UNASSIGNED)
 
 
 def _category(cat: int, payload: bytes) -> bytes:
@@ -173,8 +188,11 @@ def build_sii(desc: DeviceDescription) -> bytes:
     names = {s: sidx(s) for p in desc.rxpdos + desc.txpdos for s in
              (p.name, *(e.name for e in p.entries)) if s}
     head = bytearray(128)
-    struct.pack_into("<HH", head, 0, desc.pdi_control, 0)
-    struct.pack_into("<H", head, 8, desc.alias)
+    if desc.config_data:
+        head[:14] = desc.config_data[:14].ljust(14, b"\x00")
+    else:
+        struct.pack_into("<HH", head, 0, desc.pdi_control, 0)
+        struct.pack_into("<H", head, 8, desc.alias)
     head[14] = crc8(bytes(head[:14]))
     struct.pack_into("<IIII", head, 16, desc.vendor_id, desc.product_code, desc.revision,
                      desc.serial)
@@ -308,3 +326,50 @@ def parse_categories(image: bytes, info: SiiInfo) -> SiiInfo:
 def parse_sii(image: bytes) -> SiiInfo:
     """Everything in an SII image."""
     return parse_categories(image, parse_header(image[:128]))
+
+
+def description_from_sii(image: bytes, *, check_crc: bool = True) -> DeviceDescription:
+    """A whole SII image (as dumped from a device, e.g. by ``ec_sii`` / TwinCAT's "EEPROM
+    upload") as a :class:`DeviceDescription`: identity, strings (1 = the name SOEM shows, the
+    general category's group and name indices), SyncManagers, FMMUs, PDOs (an SM byte of 0xFF or
+    above 7 = unassigned), the PDI control word (word 0: the ESC loads it into 0x0140/0x0141),
+    the configured alias, the mailbox protocols and CoE details and the EEPROM size (word 0x3E,
+    KBit - 1). ``check_crc`` refuses an image whose word-7 checksum is wrong (an ESC would flag
+    "checksum error" in 0x0502 and not load its configuration area)."""
+    image = bytes(image)
+    if len(image) < 0x80 + 2:
+        raise DescriptionError(f"an SII image has at least the 64-word header and an end marker "
+                               f"(130 bytes); this one has {len(image)} bytes")
+    if check_crc and image[14] != crc8(image[:14]):
+        raise DescriptionError(
+            f"SII checksum: byte 14 is 0x{image[14]:02X} but CRC-8 over bytes 0..13 is "
+            f"0x{crc8(image[:14]):02X}; the image is damaged or not an SII image (pass "
+            f"check_crc=False to use it anyway, as a master would read it)")
+    info = parse_sii(image)
+
+    def string(i: int) -> str:
+        return info.strings[i - 1] if 0 < i <= len(info.strings) else ""
+
+    gen = info.general
+    name = string(1) or f"0x{info.vendor_id:08X}:0x{info.product_code:08X}"
+    group = string(gen[0]) if len(gen) > 0 else ""
+    long_name = string(gen[3]) if len(gen) > 3 else ""
+    sms = tuple(SyncManagerConfig(start=start, control=ctl, length=length, enable=enable,
+                                  sm_type=sm_type if sm_type in (1, 2, 3, 4) else 0)
+                for start, length, ctl, enable, sm_type in info.sms)
+
+    def assigned(p: Pdo) -> Pdo:
+        return p if p.sm < 8 and p.sm < len(sms) else Pdo(p.index, UNASSIGNED, p.entries, p.name)
+
+    size_kbit = struct.unpack_from("<H", image, 0x3E * 2)[0] + 1
+    eeprom_bytes = size_kbit * 128 if 0 < size_kbit <= 0x1000 else len(image)
+    return DeviceDescription(
+        info.vendor_id, info.product_code, info.revision, name, long_name, group,
+        serial=info.serial, alias=info.alias, sms=sms, fmmus=tuple(info.fmmus),
+        rxpdos=tuple(assigned(p) for p in info.rxpdos),
+        txpdos=tuple(assigned(p) for p in info.txpdos),
+        ebus_current_ma=info.ebus_current_ma,
+        pdi_control=struct.unpack_from("<H", image, 0)[0],
+        eeprom_bytes=max(eeprom_bytes, len(image)),
+        mbx_protocols=info.mbx_protocols, coe_details=gen[5] if len(gen) > 5 else 0,
+        config_data=image[:14])

@@ -43,6 +43,16 @@ the correct answers in it are solutions)::
 
 ``grade_bank(exercises, repeats=..)`` returns one :class:`Verdict` per answer and run;
 ``Verdict.problems`` lists how it differs from what the bank expects (empty: as expected).
+
+Porting a check so its bank can pass (what tests/test_banks.py asserts of every banked check):
+move the probe (and any constant the notebook prints) to ``<chapter>/probes.py``; keep inputs,
+schema, sub-tests and answer keys in ``<chapter>/checks.py`` (the sandbox hides it); declare the
+probe's ``schema``; split the judge into one ``SubTest`` per stated property; never put an
+expected answer in the inputs (the student's process sees them). Then write the wrong answers
+and watch which sub-test each one fails: an answer that scores more than it should is a weak
+check (a property never exercised, a peer doing the student's job); fix the check, not the bank.
+Cost: CI grades each bank once (tests/test_banks.py: one sandbox start per bank file, about
+0.1-1 s per answer); the 20 quiet + 20 loaded runs are ``benchmarks/bank_stability.py``.
 """
 
 from __future__ import annotations

@@ -620,7 +620,7 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
     journal = Journal(Path(f"{out}.journal.jsonl")) if out else None
     options = {"time_limit": limits.time_s, "memory_mb": limits.memory_mb, "max_processes": limits.max_processes,
                "cell_timeout": cell_timeout, "work_mb": limits.work_mb, "shm_mb": limits.shm_mb, "sandbox": mode,
-               "salt": salt}
+               "salt": salt, "resources": resources.mode()}  # a polled row is graded again where cgroups now work
     digests = {name: checks_digest(a) for name, a in assignments.items()}
     regraded: list[tuple[str, list[str]]] = []
     workroot = Path(tempfile.mkdtemp(prefix="robocourse-grade-"))
@@ -645,6 +645,9 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
         if journal and resume and key in journal.done:
             was, saved = journal.done[key]
             changed = _changed(was, opts)
+            fell_back = str(saved.get("resources", "")) if isinstance(saved, dict) else ""
+            if not changed and options["resources"] != "polling" and fell_back.startswith("polling"):
+                changed = [f"its limits were only polled then ({fell_back[:160]})"]
             if not changed:
                 g = Grade.from_json(saved)
                 g.resumed = True

@@ -18,6 +18,12 @@ limits, seeds and judges) and turns the one Grade into results.json: one Gradesc
 check, its sub-tests, seed and feedback in the test's output; hidden checks stay hidden until
 the grades are published. A broken submission (no notebook, invalid JSON, a crash) still gets a
 results.json that says what is wrong; the grader's own failure says so too.
+
+Known limit: where bubblewrap cannot create namespaces inside Gradescope's container (Docker
+without user namespaces; in this project's harness, bwrap inside bwrap), the submission runs
+unsandboxed in the container (the run summary in stdout says NOT SANDBOXED). The container is
+still thrown away after each submission, but the submission can then read the installed
+library, the judge modules and their answer keys included.
 """
 
 from __future__ import annotations

@@ -75,6 +75,39 @@ def _v1_usable() -> bool:
     return True
 
 
+def sweep_stale_v1(min_age_s: float = 60.0) -> list[Path]:
+    """Remove empty ``robocourse-sub-<pid>-*`` cgroups whose grader is gone (a grader killed by SIGKILL
+    cannot clean up after itself); returns what was removed. Only empty ones: rmdir refuses the rest."""
+    import time
+
+    removed = []
+    for c in V1_CONTROLLERS:
+        base = _own_v1_path(c)
+        if base is None:
+            continue
+        try:
+            entries = list(base.glob("robocourse-sub-*"))
+        except OSError:
+            continue
+        for d in entries:
+            try:
+                pid = int(d.name.split("-")[2])
+                os.kill(pid, 0)
+                continue  # its grader still runs
+            except ProcessLookupError:
+                pass
+            except (ValueError, IndexError, PermissionError):
+                continue
+            try:
+                if time.time() - d.stat().st_mtime < min_age_s:
+                    continue
+                d.rmdir()
+                removed.append(d)
+            except OSError:
+                pass
+    return removed
+
+
 def _v2_delegated_usable() -> bool:
     if os.geteuid() == 0 or shutil.which("systemd-run") is None:
         return False
@@ -95,6 +128,8 @@ def mode() -> str:
         else:
             _MODE.append("cgroup-v1" if _v1_usable() else "cgroup-v2-delegated" if _v2_delegated_usable()
                          else "polling")
+            if _MODE[0] == "cgroup-v1":
+                sweep_stale_v1()
     return _MODE[0]
 
 
@@ -165,6 +200,7 @@ class Box:
     mode: str = field(default_factory=mode)
     dirs: dict = field(default_factory=dict)
     unit: str = ""
+    fallback: str = ""  # why this submission fell back to polling, if it did
 
     def __enter__(self) -> Box:
         if self.mode == "cgroup-v1":
@@ -188,9 +224,18 @@ class Box:
                 (self.dirs["cpuset"] / "cpuset.cpus").write_text(cpus)
                 (self.dirs["cpuset"] / "cpuset.mems").write_text(
                     (self.dirs["cpuset"].parent / "cpuset.mems").read_text().strip())
-            except OSError:
+            except OSError as exc:  # a controller refused (a full cgroup tree, a read-only mount): poll instead
                 self.__exit__()
-                raise
+                self.mode, self.fallback = "polling", f"the cgroup could not be made ({exc.strerror or exc})"
+            else:
+                # a cgroup can exist and still refuse a process (an empty cpuset, a foreign hierarchy, a
+                # real-time task in a cpu cgroup without an RT budget): a parked child, started as the
+                # submission will be (at SCHED_OTHER), is put in first by this process, which sees the errno
+                # (a failure inside preexec_fn reaches the parent only as "Exception occurred in preexec_fn")
+                refused = self._test_join()
+                if refused:
+                    self.__exit__()
+                    self.mode, self.fallback = "polling", f"the cgroup refused a process ({refused})"
         elif self.mode == "cgroup-v2-delegated":
             self.unit = f"robocourse-sub-{uuid.uuid4().hex[:10]}"
         return self
@@ -229,11 +274,44 @@ class Box:
             cmd += ["-p", p]
         return cmd + ["--"] + argv
 
+    def _test_join(self) -> str:
+        """Put a parked child into every cgroup of this box; '' when all took it, else which refused and why."""
+        try:
+            child = subprocess.Popen(["sleep", "30"], preexec_fn=_drop_realtime, stdin=subprocess.DEVNULL,
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        except (OSError, subprocess.SubprocessError) as exc:
+            return f"no test process could start: {exc}"
+        try:
+            self._enter(child.pid)
+        except OSError as exc:
+            return f"its {exc.filename} cgroup: {exc.strerror or exc}"
+        finally:
+            child.kill()
+            child.wait()
+        with contextlib.suppress(OSError):  # the peak read back later is the submission's, not this child's
+            (self.dirs["memory"] / "memory.max_usage_in_bytes").write_text("0")
+        return ""
+
+    def _enter(self, pid: int) -> None:
+        for c, d in self.dirs.items():
+            try:
+                (d / "cgroup.procs").write_text(str(pid))
+            except OSError as exc:
+                raise OSError(exc.errno, exc.strerror, c) from None  # filename: the controller that refused
+
     def join(self) -> None:
-        """In the sandbox's first process, before exec (``preexec_fn``): enter the cgroups, pin the CPU."""
-        pid = str(os.getpid())
-        for d in self.dirs.values():
-            (d / "cgroup.procs").write_text(pid)
+        """In the sandbox's first process, before exec (``preexec_fn``): drop any real-time policy, enter the
+        cgroups, pin the CPU.
+
+        A forked child inherits its parent's scheduling policy. A grader left at SCHED_FIFO/RR (chapter 1's
+        tools run as root in the same process, a course run under ``chrt``) would hand it to the submission,
+        and a fresh v1 ``cpu`` cgroup has no real-time budget (``cpu.rt_runtime_us`` = 0): the kernel refuses
+        a real-time task there with EINVAL, so every submission failed to start ("Exception occurred in
+        preexec_fn"). A submission starts at SCHED_OTHER; asking for more inside is the student's code's
+        business (refused there, reported, carried on: chapter 1's unprivileged path).
+        """
+        _drop_realtime()
+        self._enter(os.getpid())
         if self.cpus and self.mode == "polling" and hasattr(os, "sched_setaffinity"):
             os.sched_setaffinity(0, set(self.cpus))
 
@@ -273,10 +351,18 @@ class Box:
         cpus = ",".join(map(str, self.cpus)) if self.cpus else ""
         if self.mode == "polling":
             return (f"polling: {self.memory_mb} MB of resident memory (shared memory outside the sandbox's /dev/shm "
-                    f"not counted), processes polled" + (f", CPU {cpus} by affinity (not enforced)" if cpus else ""))
+                    f"not counted), processes polled" + (f", CPU {cpus} by affinity (not enforced)" if cpus else "")
+                    + (f"; {self.fallback}" if self.fallback else ""))
         share = len(self.cpus) if self.cpus else 1
         return (f"{self.mode}: {self.memory_mb} MB incl. shared memory, {self.max_processes} tasks, {share} CPU(s)"
                 + (f": CPU {cpus} to itself" if cpus else ""))
+
+
+def _drop_realtime() -> None:
+    """SCHED_OTHER for the calling thread (lowering one's own policy is always allowed)."""
+    if hasattr(os, "sched_setscheduler"):
+        with contextlib.suppress(OSError):
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
 
 
 def _v2_unit_path(unit: str) -> Path | None:

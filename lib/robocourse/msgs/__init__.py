@@ -20,12 +20,14 @@ from robocourse.msgs import (  # noqa: F401  (import order registers dependencie
     example_interfaces,
     geometry_msgs,
     nav_msgs,
+    rcl_interfaces,
     rosgraph_msgs,
     sensor_msgs,
     std_msgs,
     std_srvs,
     tf2_msgs,
     trajectory_msgs,
+    type_description_interfaces,
     unique_identifier_msgs,
 )
 from robocourse.msgs._core import (

@@ -107,7 +107,7 @@ def drive_probe(inputs, DriveNode):
                          "v": m.twist.twist.linear.x, "w": m.twist.twist.angular.z})
 
         peer.create_subscription(Odometry, "/odom", on_odom, any_qos)
-        ex = SingleThreadedExecutor(context=ctx)
+        ex = SingleThreadedExecutor(context=ctx, on_callback_error="log")   # survive the student's raise, report it
         ex.add_node(node)
         ex.add_node(peer)
         period = 1.0 / inputs["cmd_rate"]
@@ -149,7 +149,7 @@ def led_probe(inputs, LedServer):
             return {"built": False, "error": error}
         initial = {str(k): v for k, v in list(dict(getattr(node, "leds", {}) or {}).items())[:100]}
         peer = ctx.create_node("grader_client")
-        ex = SingleThreadedExecutor(context=ctx)
+        ex = SingleThreadedExecutor(context=ctx, on_callback_error="log")   # survive the student's raise, report it
         ex.add_node(node)
         ex.add_node(peer)
         cli = peer.create_client(SetLed, "/set_led")
@@ -207,7 +207,7 @@ def nav_probe(inputs, NavigationServer):
         cmds = []   # what the server published on /cmd_vel: (t, v, w)
         peer.create_subscription(Twist, "/cmd_vel", lambda m: cmds.append((_now(peer), m.linear.x, m.angular.z)),
                                  QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
-        ex = SingleThreadedExecutor(context=ctx)
+        ex = SingleThreadedExecutor(context=ctx, on_callback_error="log")   # survive the student's raise, report it
         for n in (server, driver, peer):
             ex.add_node(n)
         client = ActionClient(peer, NavigateToPose, "/navigate_to_pose")
@@ -281,7 +281,7 @@ def teleop_probe(inputs, TeleopNode):
         got = []
         peer.create_subscription(Twist, "/cmd_vel", lambda m: got.append([_now(peer), m.linear.x, m.angular.z]),
                                  QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
-        ex = SingleThreadedExecutor(context=ctx)
+        ex = SingleThreadedExecutor(context=ctx, on_callback_error="log")   # survive the student's raise, report it
         ex.add_node(node)
         ex.add_node(peer)
         events = []

@@ -71,6 +71,13 @@ class CarRecording:
         self.scene.stop_recording()
         if len(self.trail) >= 2:
             self.scene.trace(TRAIL_PATH, np.asarray(self.trail, dtype=np.float64), rgba=(0.9, 0.2, 0.2, 1.0))
+        if self.scene.camera_auto:      # seen from the heading that draws the car largest, whichever way it started
+            from robocourse.viz.framing import closest_direction
+            from robocourse.viz.scene import CELL_WIDTH_PX
+
+            pts, pad = self.scene.motion_points()
+            if len(pts):
+                self.scene.view_direction = closest_direction(pts, pad=pad, aspect=max(1.0, CELL_WIDTH_PX / int(height)))
         return self.scene.publish_recording(height=height)
 
 

@@ -100,9 +100,9 @@ def train(env, score, threshold: float, config: ARSConfig | None = None, progres
     t0 = time.perf_counter()
     bar = None
     if progress:
-        from tqdm.auto import tqdm
+        from robocourse.notebook import progress as progress_line
 
-        bar = tqdm(total=cfg.max_iterations, desc="ARS", leave=False)
+        bar = progress_line(cfg.max_iterations, "ARS iterations")
     try:
         for it in range(1, cfg.max_iterations + 1):
             mean, std = norm.mean.copy(), norm.std
@@ -129,12 +129,12 @@ def train(env, score, threshold: float, config: ARSConfig | None = None, progres
                 steps += n
                 history.append((it, steps, value))
                 if bar is not None:
-                    bar.set_postfix(score=f"{value:.3f}")
-                if value >= threshold:
-                    solved = True
-                    break
+                    bar.desc = f"ARS iterations (score {value:.3f}, threshold {threshold:g})"
             if bar is not None:
                 bar.update(1)
+            if history and history[-1][0] == it and history[-1][2] >= threshold:
+                solved = True
+                break
     finally:
         if bar is not None:
             bar.close()

@@ -340,13 +340,16 @@ def _deploy_inputs(rng):
             "default_pose": rng.uniform(-1.0, 1.0, 6).round(4).tolist(), "action_scale": 0.5, "dof_vel_scale": 0.05,
             "target": rng.uniform(-0.6, 0.6, 3).round(4).tolist(), "tcp_default": rng.uniform(-0.6, 0.6, 3).round(4).tolist(),
             "decimation": int(rng.choice([4, 5])), "timeout": float(rng.choice([0.2, 0.3])), "rate_hz": 100.0}
-    w = rng.normal(0.0, 0.4, (6, 21))
-    w[:, 15:] = 0.0      # the last action is in the observation, but the grader's policy ignores it: each target
-    #                      then tells which /joint_states it came from, however many targets a brain never handed over
+    w = rng.normal(0.0, 0.06, (6, 21))   # small enough that clip(action, -1, 1) never saturates: every state
+    w[:, 15:] = 0.0      # gives its own target; the last action is in the observation, but the grader's policy
+    #                      ignores it: each target then tells which /joint_states it came from, however many
+    #                      targets a brain never handed over
     return {"joints": joints, "state_names": [str(n) for n in state_names], "spec": spec,
             "W": w.round(6).tolist(), "b": rng.normal(0.0, 0.1, 6).round(6).tolist(),
             "trajectory_seed": int(rng.integers(0, 2**31 - 1)), "stall_after": 12, "stall_s": 1.0, "settle_s": 0.6,
-            "max_s": 12.0, "grace_s": 15.0}
+            "max_s": 20.0, "grace_s": 15.0}   # max_s: a brain process that starts slowly on a loaded
+    #   machine (4 s to start an interpreter at load average 33 here) still reaches its stall; a normal run stops
+    #   settle_s after the stall, about 3 s in
 
 
 class _Deployment:
@@ -497,18 +500,46 @@ def _deploy_by_name(inputs, out):
     return f"{len(got)} targets, each from one /joint_states sample, by name, in the controller's order"
 
 
+def _before_stall(d: _Deployment) -> list:
+    """The targets that reached the robot before the brain's stall: those served before the stalled call
+    began (the call log's clock and the arm's are both CLOCK_MONOTONIC), else up to the longest pause
+    between targets. (A policy inside the loop stalls the ticks too, so its targets never pause in ticks.)"""
+    tgts = d.targets()
+    stall_t = d.out.get("stall_t")
+    if stall_t is not None:
+        began = stall_t - d.inputs["stall_s"]
+        return [e for e in tgts if d.wall.get(e[1], float("inf")) < began]
+    if len(tgts) < 2:
+        return tgts
+    gaps = [b[1] - a[1] for a, b in zip(tgts, tgts[1:])]
+    return tgts[: int(np.argmax(gaps)) + 1]
+
+
 def _deploy_decimation(inputs, out):
+    # judged on the states the targets came from (ticks apart), not on the wall clock, and on the median
+    # step: a busy machine makes a brain late, and a brain on absolute deadlines then catches up with a
+    # short step or two; neither is the student's doing
+    # the steps before the stall and after it (the one step across the stall left out): a brain that asks for
+    # every tick but was starved of CPU for a moment before the stall shows its own rhythm afterwards
     d = _deployment(inputs, out)
-    before = [c for c in d.calls if c["n"] <= inputs["stall_after"]]
-    if len(before) < 5:
-        raise CheckFailed(f"the policy ran {len(d.calls)} times in {d.n} ticks; it should run every {d.dec} ticks")
-    span = before[-1]["t"] - before[0]["t"]
-    want = d.rate / d.dec
-    rate = (len(before) - 1) / span if span > 0 else float("inf")
-    if not 0.5 * want <= rate <= 1.3 * want:
-        raise CheckFailed(f"the policy ran {rate:.1f} times per second; the controller runs at {d.rate:g} Hz and "
-                          f"decimation {d.dec} asks for {want:.1f} (once every {d.dec} ticks)")
-    return f"{rate:.1f} policy calls per second for {want:.1f} asked"
+    tgts = _before_stall(d)
+    if len(tgts) < 5:
+        raise CheckFailed(f"only {len(tgts)} targets reached the robot before the brain stalled; the policy should "
+                          f"run every {d.dec} ticks")
+    steps = list(np.diff([k - age for _, k, age in tgts]))
+    stall_t = out.get("stall_t")
+    if stall_t is not None:
+        after = [e for e in d.targets() if d.wall.get(e[1], -np.inf) > stall_t]
+        steps += list(np.diff([k - age for _, k, age in after]))
+    steps = np.array(steps)
+    median, quarter = float(np.median(steps)), float(np.percentile(steps, 25))
+    if median < d.dec - 1:
+        raise CheckFailed(f"the targets came from states {median:g} ticks apart (median; steps {steps[:8].tolist()} ...): "
+                          f"decimation {d.dec} asks for one policy step every {d.dec} ticks")
+    if quarter > 2 * d.dec:
+        raise CheckFailed(f"the targets came from states {median:g} ticks apart (median; a quarter of the steps "
+                          f"{quarter:g} or more): decimation {d.dec} asks for one policy step every {d.dec} ticks")
+    return f"one policy step every {int(np.median(steps))} ticks (median) for decimation {d.dec}"
 
 
 def _deploy_latest(inputs, out):
@@ -531,8 +562,7 @@ def _deploy_safe_mode(inputs, out):
     tgts = [e for e in d.events if e[0] in ("target", "misread")]
     if len(tgts) < 2:
         raise CheckFailed("too few targets reached the robot to see what happens when the brain stops")
-    gaps = [(b[1] - a[1], a[1], b[1]) for a, b in zip(tgts, tgts[1:])]
-    gap, k_a, k_b = max(gaps)
+    gap, k_a, k_b = max((b[1] - a[1], a[1], b[1]) for a, b in zip(tgts, tgts[1:]))
     stall = inputs["stall_s"] * d.rate
     if gap < 0.5 * stall:
         raise CheckFailed(f"the brain stopped answering for {inputs['stall_s']:g} s (its call {inputs['stall_after'] + 1}) "

@@ -162,7 +162,8 @@ class PolicyDeployment:
     ``run_realtime`` runs the brain (:data:`PLACEMENTS`); ``servo_gains`` replaces the robot's
     servo gains (``{joint: ServoGains}``: a robot tuned differently from the training sim);
     ``stall_at`` (s) stops the brain (a dying policy); ``zero_torque_s``/``move_s`` the start-up
-    phases, ``damping_kd`` the exit damping; ``log`` the control stack's
+    phases, ``damping_kd`` the damping gain (exit and safe mode; per joint capped where a damping
+    computed once per tick stays stable: ``damping_kds``); ``log`` the control stack's
     :class:`~robocourse.control.log.LogSink` (default: records kept, nothing printed).
     """
 
@@ -231,6 +232,7 @@ class PolicyDeployment:
         self.bridge = JointBridge(ARM_JOINTS, timeout=timeout, safe_mode=safe_mode)
         self.stall_at = stall_at
         self.zero_torque_s, self.move_s, self.damping_kd = float(zero_torque_s), float(move_s), float(damping_kd)
+        self.damping_kds = self._sampled_damping_gains(self.damping_kd)
         # the latest-value buffer of /joint_states between the cerebellum and a brain in this process
         self._shared = LatestValue(2 * ns)
         self._brain_buf = np.zeros(2 * ns)
@@ -349,8 +351,31 @@ class PolicyDeployment:
                     self.n_ages += 1
         self.cm.cycle(now, self.period)
 
+    def _sampled_damping_gains(self, kd: float) -> np.ndarray:
+        """Per joint: ``kd``, capped at half of M_jj / period. The damping torque is computed once per
+        control tick from the measured velocity and held for the tick; above about M_jj / period the
+        sampled loop overshoots (the velocity changes sign every tick and grows): the UR5e's wrist_3
+        (M_jj ~ 0.003 kg m^2) at ``kd`` 8 and 500 Hz would chatter. A drive's own damping runs at its
+        current-loop rate, far above ours; on real arms the rotor inertia behind the gearbox adds to M_jj."""
+        import mujoco
+
+        if not (math.isfinite(kd) and kd >= 0):
+            raise ValueError(f"damping_kd={kd!r} must be a finite gain >= 0 (N m s/rad), e.g. 8.0")
+        m, d = self.sim.model, self.sim.data
+        mujoco.mj_forward(m, d)
+        out = np.empty(len(ARM_JOINTS))
+        unit, res = np.zeros(m.nv), np.zeros(m.nv)
+        for i, j in enumerate(ARM_JOINTS):
+            dof = int(m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j)])
+            unit[:] = 0.0
+            unit[dof] = 1.0
+            mujoco.mj_mulM(m, d, res, unit)
+            out[i] = min(kd, 0.5 * float(res[dof]) / self.period)
+        return out
+
     def _damp(self) -> None:
-        np.multiply(self._dq, -self.damping_kd, out=self._effort_cmd)
+        np.multiply(self._dq, -1.0, out=self._effort_cmd)
+        self._effort_cmd *= self.damping_kds
         self.effort.set_command(self._effort_cmd)
 
     def tcp_distance(self) -> float:

@@ -121,3 +121,29 @@ def frame_motion(points, pad: float = 0.0, fov_deg: float = FOV_DEG, aspect: flo
         near, far = (near, mid) if fits(mid) else (mid, far)
     dist = far
     return target + d * dist, target
+
+
+def closest_direction(points, pad: float = 0.0, aspect: float = ASPECT, elevation_deg: float = 55.0,
+                      steps: int = 72, fill: float = 0.8, fov_deg: float = FOV_DEG):
+    """The view direction (target -> camera, ``elevation_deg`` above the floor) from which the motion
+    fits the view with the camera closest, so the robot is drawn largest.
+
+    :func:`frame_motion`'s automatic choice looks across the motion's main horizontal axis; for a
+    drive that turns (no main axis) that choice follows the drive's heading in the world, and a
+    wide notebook view may then see the drive end-on, from twice as far. Trying ``steps`` headings
+    makes the picture the same whichever way the car was facing when it started."""
+    if not (isinstance(steps, int) and steps >= 1):
+        raise ValueError(f"steps={steps!r}: the number of headings to try must be a positive int (e.g. 72)")
+    if not 0.0 < float(elevation_deg) < 90.0:
+        raise ValueError(f"elevation_deg={elevation_deg!r}: the camera must look down from above the floor, "
+                         "strictly between 0 and 90 degrees (55 is the floor default)")
+    elev = math.radians(float(elevation_deg))
+    best, best_dist = None, math.inf
+    for k in range(steps):
+        yaw = 2.0 * math.pi * k / steps
+        d = np.array([math.cos(yaw) * math.cos(elev), math.sin(yaw) * math.cos(elev), math.sin(elev)])
+        pos, target = frame_motion(points, pad=pad, fov_deg=fov_deg, aspect=aspect, fill=fill, direction=d)
+        dist = float(np.linalg.norm(pos - target))
+        if dist < best_dist * (1.0 - 1e-6):          # ties keep the first heading: deterministic
+            best, best_dist = d, dist
+    return best

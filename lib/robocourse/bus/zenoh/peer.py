@@ -77,8 +77,7 @@ def main(argv=None) -> int:
     print("READY", ctx.transport.zid, flush=True)
     threading.Thread(target=exit_with_parent, daemon=True).start()
     try:
-        while ctx.ok():
-            ex.spin_once(timeout_sec=0.1)
+        ex.spin()               # as rclpy.spin(node): until the context shuts down
     except KeyboardInterrupt:
         pass
     ctx.try_shutdown()

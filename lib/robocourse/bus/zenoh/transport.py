@@ -147,15 +147,21 @@ class ZenohQoS:
 
 def zenoh_qos(qos) -> ZenohQoS:
     """rmw_zenoh's mapping: RELIABLE -> reliable; RELIABLE + KEEP_ALL -> BLOCK, otherwise
-    DROP; TRANSIENT_LOCAL -> a ``depth`` cache / history (depth 0 keeps 1); RELIABLE +
+    DROP; TRANSIENT_LOCAL -> a ``depth`` cache / history (KEEP_LAST depth 0: rmw_zenoh's default
+    depth 42; KEEP_ALL depth 0 keeps 1); RELIABLE +
     TRANSIENT_LOCAL -> sporadic heartbeat every :data:`HEARTBEAT_PERIOD` s on the publisher
     and recovery with heartbeat on the subscriber."""
-    from robocourse.bus.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
+    from robocourse.bus.qos import (
+        DurabilityPolicy,
+        HistoryPolicy,
+        ReliabilityPolicy,
+        effective_depth,
+    )
 
     reliable = qos.reliability != ReliabilityPolicy.BEST_EFFORT
     latched = qos.durability == DurabilityPolicy.TRANSIENT_LOCAL
     return ZenohQoS(reliable=reliable, block=reliable and qos.history == HistoryPolicy.KEEP_ALL,
-                    history=max(qos.depth, 1) if latched else None,
+                    history=(qos.depth or (effective_depth(qos) or 1)) if latched else None,
                     heartbeat=HEARTBEAT_PERIOD if latched and reliable else None,
                     recovery=latched and reliable)
 

@@ -3,7 +3,9 @@
 Counterpart: ``controller_manager::ControllerManager`` (ros2_control:controller_manager/src/
 controller_manager.cpp, rolling). What matches upstream, message for message:
 
-- load / configure / cleanup / unload with the ``<name>.type`` parameter and pluginlib lookup;
+- load / configure / cleanup / unload with the ``<name>.type`` parameter and pluginlib lookup; a
+  chainable controller's reference and state interfaces are exported at configure, after its
+  ``on_configure`` (names computed there exist), and removed at cleanup;
 - ``switch_controller(activate, deactivate, strictness, activate_asap, timeout)``: STRICT aborts
   the whole request ("Aborting, no controller is switched! ('STRICT' switch)"), BEST_EFFORT drops
   the offending controllers; interface problems fail the request whatever the strictness;
@@ -15,8 +17,12 @@ controller_manager.cpp, rolling). What matches upstream, message for message:
   deactivated while a preceding controller stays active;
 - per-controller ``update_rate`` (rolling: ``ticks = round(cm / rate)``, rate = cm / ticks);
 - an update() returning ERROR or raising deactivates the controller's chain group and activates
-  its ``fallback_controllers``; a hardware read/write ERROR deactivates every controller using
-  that hardware's interfaces, a write DEACTIVATE those holding its command interfaces.
+  its ``fallback_controllers``, and ``update()`` returns ERROR for that cycle; fallbacks are
+  checked as upstream (not the controller itself; before activation each exists, is configured
+  and could take over); a hardware read/write ERROR deactivates every controller using that
+  hardware's interfaces (a read() DEACTIVATE counts as ERROR), a write DEACTIVATE those holding
+  its command interfaces;
+- ``list_controllers`` fills the service's fields as upstream does for each state.
 
 Time: the same manager runs deterministically (``step()``/``spin_for()`` on simulated time, for
 tests and notebooks: a switch requested between cycles takes effect before the next update,
@@ -38,7 +44,13 @@ from .. import pluginlib
 from ..hardware.types import ACTIVE, FINALIZED, INACTIVE, UNCONFIGURED, State, as_state, return_type
 from ..lifecycle import Lifecycle
 from ..log import LogSink
-from ..parameters import ParameterSchema, ParamListener, load_parameter_file, params_for
+from ..parameters import (
+    ParameterSchema,
+    ParamListener,
+    as_parameter_files,
+    load_parameter_file,
+    params_for,
+)
 from .controller_interface import ControllerInterface, interface_configuration_type
 from .resource_manager import ResourceError, ResourceManager
 
@@ -103,8 +115,8 @@ class _SwitchRequest:
 class ControllerManager:
     """``ControllerManager(urdf, params="controllers.yaml")``: hardware from the URDF, settings from YAML.
 
-    ``params`` is a ROS 2 parameter file (path, YAML text or the dict of
-    :func:`~robocourse.control.parameters.load_parameter_file`); the manager reads the
+    ``params`` is a ROS 2 parameter file (path, YAML text, the same layout as a dict
+    ``{node: {"ros__parameters": {...}}}``, or ``{node: {param: value}}``); the manager reads the
     ``controller_manager`` section (``update_rate``, ``<controller>.type`` ...) and each
     controller's own section. ``components={"<ros2_control name>": instance}`` supplies hardware
     objects (a student's class). ``context`` is the bus context the manager's node and the
@@ -116,10 +128,7 @@ class ControllerManager:
                  resource_manager: ResourceManager | None = None, node_name: str = "controller_manager"):
         self.log = log if log is not None else (resource_manager.log if resource_manager else LogSink())
         self.logger = self.log.logger(node_name)
-        if isinstance(params, dict) and all(isinstance(v, dict) for v in params.values()):
-            self.param_files = params
-        else:
-            self.param_files = load_parameter_file(params) if params is not None else {}
+        self.param_files = as_parameter_files(params)
         cm_values = params_for(self.param_files, node_name)
         if update_rate is not None:
             cm_values["update_rate"] = update_rate
@@ -264,7 +273,14 @@ class ControllerManager:
                                   f"Available classes:\n  " + "\n  ".join(pluginlib.declared(pluginlib.CONTROLLER_BASE)))
                 return None
             controller = cls()
-        spec = ControllerSpec(name, controller_type, controller, entry.get("fallback_controllers", []))
+        fallbacks = entry.get("fallback_controllers", [])
+        if isinstance(fallbacks, str) or not all(isinstance(f, str) for f in fallbacks):
+            self.logger.error(f"'{name}.fallback_controllers' must be a list of controller names, got {fallbacks!r}")
+            return None
+        if name in fallbacks:
+            self.logger.error(f"Controller '{name}' cannot be a fallback controller for itself.")
+            return None
+        spec = ControllerSpec(name, controller_type, controller, list(fallbacks))
         values = self.controller_parameters(name)
         # what upstream controllers parse from robot_description: the URDF <limit> of every joint
         controller.joint_limits = {j: lim for comp in self.rm.components.values() for j, lim in comp.info.limits.items()}
@@ -281,16 +297,6 @@ class ControllerManager:
         for key in getattr(controller, "unused_parameters", []):
             self.logger.warning(f"parameter '{key}' of controller '{name}' is not declared by "
                                 f"{controller_type} (ignored, as ROS does)")
-        if controller.is_chainable():
-            try:
-                self.rm.import_controller_reference_interfaces(name, controller.export_reference_interfaces(),
-                                                               controller.reference_interfaces)
-                self.rm.import_controller_exported_state_interfaces(name, controller.export_state_interfaces(),
-                                                                    controller.exported_state_interfaces)
-            except ResourceError as exc:
-                self.rm.remove_controller_interfaces(name)
-                self.logger.error(str(exc))
-                return None
         self.controllers[name] = spec
         self._reorder()
         self.logger.info(f"Loaded controller '{name}' of type '{controller_type}'")
@@ -305,12 +311,17 @@ class ControllerManager:
             self.logger.error(f"Controller '{name}' can not be configured from 'active' state.")
             return return_type.ERROR
         if spec.state == INACTIVE:
-            spec.lifecycle.cleanup()
+            self.cleanup_controller(name)
         state = spec.lifecycle.configure()
         if state != INACTIVE:
             why = spec.lifecycle.last_exception
             self.logger.error(f"After configuring, controller '{name}' is in state '{state.label}' , expected "
                               "inactive." + (f" ({why!r})" if why else ""))
+            return return_type.ERROR
+        if spec.c.is_chainable() and not self._export_interfaces(spec):
+            why = spec.lifecycle.last_exception
+            spec.lifecycle.cleanup()
+            spec.lifecycle.last_exception = why
             return return_type.ERROR
         rate = spec.c.update_rate
         if rate > self.update_rate:
@@ -329,13 +340,42 @@ class ControllerManager:
         self._reorder()   # a controller may know its interfaces (and so its chain) only once configured
         return return_type.OK
 
+    def _export_interfaces(self, spec: ControllerSpec) -> bool:
+        """Upstream's configure step for a chainable controller: after ``on_configure`` (so names
+        computed there count), its reference and state interfaces go into the resource manager
+        (unavailable until it is activated)."""
+        c, name = spec.c, spec.name
+        try:
+            refs, states = c.export_reference_interfaces(), c.export_state_interfaces()
+        except Exception as exc:  # noqa: BLE001 - a student's on_export_* may raise
+            spec.lifecycle.last_exception = exc
+            self.logger.error(f"Export of the state or reference interfaces failed for controller '{name}': {exc!r}")
+            return False
+        if not refs and not states:
+            self.logger.warning(f"Controller '{name}' is chainable, but does not export any state or reference "
+                                "interfaces. Did you override the on_export_method() correctly?")
+        try:
+            self.rm.import_controller_reference_interfaces(name, refs, c.reference_interfaces)
+            self.rm.import_controller_exported_state_interfaces(name, states, c.exported_state_interfaces)
+        except ResourceError as exc:
+            self.rm.remove_controller_interfaces(name)
+            self.logger.error(str(exc))
+            return False
+        self._reorder()
+        return True
+
     def cleanup_controller(self, name: str) -> return_type:
+        """INACTIVE -> UNCONFIGURED; a chainable controller's exported interfaces are removed (upstream)."""
         spec = self.controllers.get(name)
         if spec is None or spec.state != INACTIVE:
             self.logger.error(f"Controller '{name}' can not be cleaned-up from "
                               f"'{spec.state.label if spec else 'not loaded'}' state.")
             return return_type.ERROR
-        return return_type.OK if spec.lifecycle.cleanup() == UNCONFIGURED else return_type.ERROR
+        ok = spec.lifecycle.cleanup() == UNCONFIGURED
+        if spec.c.is_chainable():
+            self.rm.remove_controller_interfaces(name)
+            self._reorder()
+        return return_type.OK if ok else return_type.ERROR
 
     def unload_controller(self, name: str) -> return_type:
         spec = self.controllers.get(name)
@@ -583,6 +623,43 @@ class ControllerManager:
         for n in deactivate:
             if self.controllers[n].state != ACTIVE:
                 return n, f"Controller with name '{n}' can not be deactivated since it is not active."
+        for n in activate:
+            problem = self._check_fallbacks(n)
+            if problem:
+                return n, problem
+        return None
+
+    def _check_fallbacks(self, name: str) -> str | None:
+        """Upstream's check_fallback_controllers_state_pre_activation: each fallback of ``name``
+        exists, is configured (inactive or active) and could take over (its interfaces available,
+        or exported by an inactive controller in the same fallback list)."""
+        spec = self.controllers[name]
+        for fb in spec.fallback_controllers:
+            other = self.controllers.get(fb)
+            if other is None:
+                return (f"Unable to find the fallback controller : '{fb}' of the controller : '{name}' within the "
+                        "controller list")
+            if other.state not in (INACTIVE, ACTIVE):
+                return (f"Controller with name '{name}' cannot be activated, as its fallback controller : '{fb}' "
+                        "need to be configured and be in inactive/active state!")
+            try:
+                cmds, states = self.required_interfaces(other)
+            except Exception as exc:  # noqa: BLE001 - a student's configuration method may raise
+                return f"Controller with name '{name}' cannot be activated: its fallback '{fb}' raised {exc!r}"
+            for kind, keys, available in (("command", cmds, self.rm.command_interface_is_available),
+                                          ("state", states, self.rm.state_interface_is_available)):
+                for k in keys:
+                    if available(k):
+                        continue
+                    owner = self.rm.owner_of(k) if self.rm.is_reference_interface(k) else None
+                    if owner is None or owner not in self.controllers:
+                        return (f"Controller with name '{name}' cannot be activated, as not all of its fallback "
+                                f"controller's : '{fb}' {kind} interfaces are currently available!")
+                    if self.controllers[owner].state == INACTIVE and owner not in spec.fallback_controllers:
+                        return (f"Controller with name '{name}' cannot be activated, as the {kind} interface : "
+                                f"'{k}' required by its fallback controller : '{fb}' is not available as the "
+                                "controller is not in active state!. May be consider adding this controller to the "
+                                f"fallback list of the controller : '{owner}' or already have it activated.")
         return None
 
     def _chain_cycle(self, start: str) -> list[str] | None:
@@ -763,9 +840,13 @@ class ControllerManager:
                      if any(self.rm.owner_of(loan.name) in gone for loan in s.c.command_interfaces)]
             self._deactivate_now(users, "as their hardware components deactivated themselves")
 
-    def update(self, time: float, period: float) -> None:
-        """Update every active controller due this cycle (preceding first), then apply a pending switch."""
+    def update(self, time: float, period: float) -> return_type:
+        """Update every active controller due this cycle (preceding first), then apply a pending switch.
+
+        Returns upstream's cycle result: OK, or the failing controller's ERROR in the cycle one
+        failed (raising counts as ERROR); the failed controllers are deactivated either way."""
         failed = None
+        result = return_type.OK
         for spec in self._active:
             if spec.ticks > 1:
                 spec.counter += 1
@@ -796,6 +877,7 @@ class ControllerManager:
                 if failed is None:
                     failed = []
                 failed.append(spec.name)
+                result = ret if isinstance(ret, return_type) else return_type.ERROR
         if failed:
             self._controllers_failed(failed)
         if self._pending is not None and self._switch_lock.acquire(blocking=False):
@@ -805,6 +887,7 @@ class ControllerManager:
                 self._switch_lock.release()
             if req is not None:
                 self._do_switch(req)
+        return result
 
     def _controllers_failed(self, failed: list[str]) -> None:
         group = self._chain_group(failed)
@@ -843,8 +926,9 @@ class ControllerManager:
         self.timing = CycleTimes(capacity)
         return self.timing
 
-    def cycle(self, time: float | None = None, period: float | None = None) -> None:
-        """One read -> update -> write at ``time`` (default: the next tick of the manager's clock)."""
+    def cycle(self, time: float | None = None, period: float | None = None) -> return_type:
+        """One read -> update -> write at ``time`` (default: the next tick of the manager's clock);
+        returns what :meth:`update` returned."""
         if period is None:
             period = self.period
         if time is None:
@@ -852,13 +936,13 @@ class ControllerManager:
         if self.timing is not None:
             from .loop import timed_cycle
 
-            timed_cycle(self, self.timing, time, period)
-            return
+            return timed_cycle(self, self.timing, time, period)
         self.time = time
         self.read(time, period)
-        self.update(time, period)
+        ret = self.update(time, period)
         self.write(time, period)
         self.cycles += 1
+        return ret
 
     def run_realtime(self, seconds: float, **kwargs):
         """The wall-clock loop (see :func:`robocourse.control.manager.loop.run_realtime`)."""
@@ -890,6 +974,27 @@ class ControllerManager:
             raise ValueError(f"seconds must be a finite number >= 0, got {seconds!r}")
         self.step(int(round(seconds * self.update_rate)))
 
+    def spin_until_future_complete(self, future, timeout_sec: float | None = None) -> bool:
+        """Step the manager (cycles and bus callbacks, on its simulated time) until ``future`` is
+        done, as rclpy's ``executor.spin_until_future_complete`` spins; ``timeout_sec`` is cycle
+        time (None: no limit). Returns ``future.done()``. For a service or action call to a
+        controller whose answer needs the loop to run (a JTC goal, a switch)."""
+        if timeout_sec is not None and (not isinstance(timeout_sec, (int, float)) or isinstance(timeout_sec, bool)
+                                        or not math.isfinite(timeout_sec) or timeout_sec < 0):
+            raise ValueError(f"timeout_sec must be None (no limit) or a finite number of seconds >= 0, "
+                             f"got {timeout_sec!r}")
+        if not hasattr(future, "done"):
+            raise TypeError(f"spin_until_future_complete needs a future (call_async(), send_goal_async(), "
+                            f"get_result_async()), got {type(future).__name__}")
+        cycles = None if timeout_sec is None else int(math.ceil(timeout_sec * self.update_rate - 1e-9))
+        n = 0
+        if self._executor is not None:
+            self.executor.spin_some()
+        while not future.done() and (cycles is None or n < cycles):
+            self.step(1)
+            n += 1
+        return future.done()
+
     # --- hardware lifecycle -------------------------------------------------------------------------------------------
     def set_hardware_component_state(self, name: str, target) -> return_type:
         """Move a hardware component; controllers using it are deactivated first when it leaves ACTIVE/INACTIVE."""
@@ -920,18 +1025,34 @@ class ControllerManager:
 
     # --- introspection data (what the list_* services return) --------------------------------------------------------
     def list_controllers(self):
+        """controller_manager's list_controllers service, field by field as upstream fills it:
+        required interfaces, chain connections and exported interfaces only for an inactive or
+        active controller (empty while unconfigured); exported reference/state interfaces without
+        the ``<controller>/`` prefix; a chain connection's ``reference_interfaces`` lists the
+        interface part (after the first ``/``) of every required command interface that names a
+        loaded controller."""
         from ..msgs import ChainConnection, ControllerState
 
         out = []
         for s in self._ordered:
-            try:
-                cmds, states = self.required_interfaces(s)
-            except Exception:  # noqa: BLE001
-                cmds, states = [], []
-            refs, exported = self.rm.controller_interfaces(s.name)
-            chains = []
-            for f in self._followers(s):
-                chains.append(ChainConnection(name=f, reference_interfaces=[k for k in cmds if self.rm.owner_of(k) == f]))
+            cmds, states, refs, exported, chains = [], [], [], [], []
+            if s.state in (INACTIVE, ACTIVE):
+                try:
+                    cmds, states = self.required_interfaces(s)
+                except Exception:  # noqa: BLE001 - a student's configuration method may raise
+                    cmds, states = [], []
+                targets, types = [], []
+                for k in cmds:
+                    prefix, _, rest = k.partition("/")
+                    if prefix in self.controllers:
+                        if prefix not in targets:
+                            targets.append(prefix)
+                        types.append(rest)
+                chains = [ChainConnection(name=t, reference_interfaces=list(types)) for t in sorted(targets)]
+                if s.c.is_chainable():
+                    full_refs, full_exported = self.rm.controller_interfaces(s.name)
+                    cut = len(s.name) + 1
+                    refs, exported = [k[cut:] for k in full_refs], [k[cut:] for k in full_exported]
             out.append(ControllerState(
                 name=s.name, state=s.state.label, type=s.type, is_async=s.c.is_async,
                 update_rate=int(s.c.update_rate), claimed_interfaces=[loan.name for loan in s.c.command_interfaces],

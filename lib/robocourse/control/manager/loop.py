@@ -83,15 +83,16 @@ class CycleTimes:
         return "\n".join([head] + [s.row() for s in self.stats().values()])
 
 
-def timed_cycle(cm, times: CycleTimes, time: float, period: float) -> None:
-    """One read -> update -> write with each stage's duration stored (the hot path)."""
+def timed_cycle(cm, times: CycleTimes, time: float, period: float):
+    """One read -> update -> write with each stage's duration stored (the hot path); returns
+    the update's result."""
     clock = _time.perf_counter_ns
     k = times.count
     ns = times.ns
     t0 = clock()
     cm.read(time, period)
     t1 = clock()
-    cm.update(time, period)
+    ret = cm.update(time, period)
     t2 = clock()
     cm.write(time, period)
     t3 = clock()
@@ -103,6 +104,7 @@ def timed_cycle(cm, times: CycleTimes, time: float, period: float) -> None:
     times.count = k + 1
     cm.time = time
     cm.cycles += 1
+    return ret
 
 
 @dataclass

@@ -10,7 +10,9 @@ INACTIVE one offers its state interfaces and, as upstream still does (ros2_contr
 command interfaces; an ACTIVE one everything. read() runs for INACTIVE and ACTIVE components,
 write() for ACTIVE ones. A read()/write() that returns ERROR or raises runs the component's
 error handler (on_error), makes all its interfaces unavailable and is reported back with the
-component's name; write() returning DEACTIVATE makes the component INACTIVE. Hardware in the
+component's name; write() returning DEACTIVATE makes the component INACTIVE (from read() it is
+treated as ERROR, as upstream: "DEACTIVATE returned from read cycle is treated the same as
+ERROR."). Hardware in the
 same ``<group>`` fails together. The first NaN a component reads into a state is logged once
 (upstream passes it on silently; the loop carries on either way).
 """
@@ -256,11 +258,21 @@ class ResourceManager:
 
     def value(self, key: str) -> float:
         """Current value of a state (or, if no such state, command) interface."""
-        arr, i = self._state_map[key] if key in self._state_map else self._command_map[key]
+        if key in self._state_map:
+            arr, i = self._state_map[key]
+        elif key in self._command_map:
+            arr, i = self._command_map[key]
+        else:
+            raise KeyError(f"no state or command interface '{key}'; state interfaces: "
+                           f"{sorted(self._state_map)}, command interfaces: {sorted(self._command_map)}")
         return float(arr[i])
 
     def command_value(self, key: str) -> float:
-        """Current value of a command (or controller reference) interface."""
+        """Current value of a command (or controller reference) interface: what the controllers
+        wrote this cycle, what write() sends (upstream: ``get_optional()`` on the handle)."""
+        if key not in self._command_map:
+            raise KeyError(f"no command interface '{key}'; command interfaces: {sorted(self._command_map)} "
+                           "(a state interface's value: value(key))")
         arr, i = self._command_map[key]
         return float(arr[i])
 
@@ -480,6 +492,11 @@ class ResourceManager:
     def _handle_failures(self, failed) -> HardwareReadWriteStatus:
         status = HardwareReadWriteStatus(ok=False, result=return_type.ERROR)
         for c, ret, what in failed:
+            if ret == return_type.DEACTIVATE and what == "read":
+                # upstream's rule: a component cannot deactivate itself from read()
+                self.logger.warning(f"hardware '{c.name}': DEACTIVATE returned from read cycle is treated the "
+                                    "same as ERROR.")
+                ret = return_type.ERROR
             if ret == return_type.DEACTIVATE:
                 self.logger.warning(f"Deactivating hardware component '{c.name}' because its {what}() "
                                     "returned DEACTIVATE")

@@ -3,9 +3,10 @@
 Counterpart: ``diff_drive_controller::DiffDriveController``: ``~/cmd_vel``
 (geometry_msgs/TwistStamped) -> wheel velocity commands ``w_l = (v - w sep/2) / r_l``,
 ``w_r = (v + w sep/2) / r_r`` on every wheel of a side; a command older than
-``cmd_vel_timeout`` (0.5 s, from its header stamp; a zero stamp counts as "now") becomes zero;
+``cmd_vel_timeout`` (0.5 s, from its header stamp; a zero stamp counts as "now"; 0.0 disables the
+timeout) becomes zero;
 odometry from the wheels' position feedback (or velocity feedback, or the commands when
-``open_loop``), integrated exactly along the arc, published on ``/odom``
+``open_loop``), integrated exactly along the arc, published on ``~/odom`` (``/<controller>/odom``)
 (nav_msgs/Odometry) and as the ``odom -> base_link`` transform on ``/tf``.
 ``wheel_separation`` and ``wheel_radius`` are mandatory and > 0; ``*_multiplier`` correct them.
 The kinematics are :mod:`robocourse.sim.diffdrive`, the same functions chapter 3's car uses.
@@ -64,7 +65,7 @@ class DiffDriveController(ControllerInterface):
         if self._node is None:
             node = self.get_node()
             node.create_subscription(TwistStamped, "~/cmd_vel", self._on_cmd_vel, 10)
-            self._odom_pub = node.create_publisher(Odometry, "/odom", 10)
+            self._odom_pub = node.create_publisher(Odometry, "~/odom", 10)
             self._tf_pub = node.create_publisher(TFMessage, "/tf", 10)
         return CallbackReturn.SUCCESS
 
@@ -130,7 +131,7 @@ class DiffDriveController(ControllerInterface):
         p = self.params
         cmd = self._cmd
         v = w = 0.0
-        if cmd is not None and time - cmd[0] <= p.cmd_vel_timeout:
+        if cmd is not None and (p.cmd_vel_timeout == 0.0 or time - cmd[0] <= p.cmd_vel_timeout):
             v, w = cmd[1], cmd[2]
         # odometry: wheel travel (m) over this period -> exact arc
         if p.open_loop:

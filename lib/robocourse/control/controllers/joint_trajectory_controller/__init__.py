@@ -10,8 +10,11 @@ quintic splines (:mod:`.trajectory`). Like jazzy and later, the reference is sam
 trajectory time and the command one controller period ahead. Command interface sets: position,
 position+velocity, position+velocity+acceleration, position+effort, velocity, effort; velocity-
 or effort-only (without position) close the loop with a per-joint PID (``gains.<joint>.*``).
-Path/goal tolerances, goal_time, stopped_velocity_tolerance and cmd_timeout as upstream; the
-action result codes and strings are upstream's. ``~/controller_state`` publishes reference,
+Path/goal tolerances, goal_time, stopped_velocity_tolerance and cmd_timeout as upstream (a goal
+with an illegal tolerance, a negative other than -1 or an unknown joint, runs with the
+controller's defaults and an error in the log); the action result codes and strings are
+upstream's. On deactivate the active goal is aborted, position commands stay where they are and
+velocity / acceleration / effort commands become 0. ``~/controller_state`` publishes reference,
 feedback, error and output each update.
 
 Differences: the action goal is finished by a timer at ``action_monitor_rate`` on the
@@ -241,9 +244,8 @@ class JointTrajectoryController(ControllerInterface):
     def on_deactivate(self, previous_state):
         self.goals.finish("abort", Result(error_code=Result.INVALID_GOAL,
                                           error_string="Current goal cancelled during deactivate transition."))
-        self._read_state(self.state_current)
-        if "position" in self._cmd:
-            self._cmd["position"].set(self.state_current.positions)
+        # upstream writes each position command back to itself (it stays where the last
+        # update() left it) and zeroes velocity, acceleration and effort commands
         for iface in ("velocity", "acceleration", "effort"):
             if iface in self._cmd:
                 self._cmd[iface].set(np.zeros(self.dof))
@@ -482,26 +484,47 @@ class JointTrajectoryController(ControllerInterface):
         self._hold_requested = False
         self._is_holding = False
 
-    def _goal_tolerances(self, goal) -> _Tolerances | str:
-        """get_segment_tolerances(): the goal's path/goal tolerances over the defaults."""
-        tol = self.default_tolerances.copy()
-        for kind, entries in (("state", goal.path_tolerance), ("goal", goal.goal_tolerance)):
+    def _goal_tolerances(self, goal) -> _Tolerances:
+        """get_segment_tolerances(): the goal's path/goal tolerances over the defaults.
+
+        As upstream (tolerances.hpp ``resolve_tolerance_source``): > 0 replaces the default, 0
+        keeps it, -1 erases it (not checked); any other negative value, or a joint the controller
+        does not have, is logged and the whole goal runs with the controller's defaults (the goal
+        is not rejected)."""
+        default = self.default_tolerances
+        tol = default.copy()
+        log = self.get_logger()
+
+        def resolve(default_value: float, value: float) -> float:
+            if value > 0.0:
+                return value
+            if abs(value + 1.0) < 1.1920929e-07:     # FLT_EPSILON, as upstream
+                return 0.0
+            if value < 0.0:
+                raise ValueError(value)
+            return default_value
+
+        try:
+            tol.goal_time = resolve(default.goal_time, _seconds(goal.goal_time_tolerance))
+        except ValueError:
+            log.error(f"Specified illegal goal_time_tolerance: {_seconds(goal.goal_time_tolerance):f}. "
+                      "Using default tolerances")
+            return default.copy()
+        for kind, where, entries in (("state", "path_tolerance", goal.path_tolerance),
+                                     ("goal", "goal_tolerance", goal.goal_tolerance)):
             for jt in entries:
                 if jt.name not in self._joints:
-                    return f"{'path' if kind == 'state' else 'goal'}_tolerance names unknown joint '{jt.name}'"
+                    log.error(f"joint '{jt.name}' specified in goal.{where} does not exist. Using default tolerances.")
+                    return default.copy()
                 k = self._joints.index(jt.name)
                 for field in ("position", "velocity", "acceleration"):
-                    v = getattr(jt, field)
-                    if v == -1.0:
-                        getattr(tol, f"{kind}_{field}")[k] = 0.0
-                    elif v > 0.0:
-                        getattr(tol, f"{kind}_{field}")[k] = v
-                    elif v < 0.0:
-                        return (f"{field} tolerance of joint '{jt.name}' is {v}: use > 0, 0 (the controller's "
-                                "default) or -1 (not checked)")
-        gt = _seconds(goal.goal_time_tolerance)
-        if gt > 0.0:
-            tol.goal_time = gt
+                    arr = getattr(tol, f"{kind}_{field}")
+                    try:
+                        arr[k] = resolve(arr[k], getattr(jt, field))
+                    except ValueError:
+                        log.error(f"joint '{jt.name}' specified in goal.{where} has a invalid {field} tolerance. "
+                                  "Using default tolerances.")
+                        return default.copy()
         tol.seal()
         return tol
 
@@ -511,9 +534,6 @@ class JointTrajectoryController(ControllerInterface):
             self._reject("Can't accept new action goals. Controller is not running.")
             return GoalResponse.REJECT
         why = self.validate_trajectory_msg(goal.trajectory)
-        if why is None:
-            tol = self._goal_tolerances(goal)
-            why = tol if isinstance(tol, str) else None
         if why is not None:
             self._reject(why)
             return GoalResponse.REJECT
