@@ -94,7 +94,10 @@ def main(argv=None) -> int:
                 print(f"{path.stem} run {run + 1}/{args.repeats} {condition:<6} {seconds[condition][-1]:6.1f} s  "
                       f"load avg {loadavg[condition][-1]:4.1f}  "
                       f"{len(verdicts) - len(bad)}/{len(verdicts)} as expected"
-                      + "".join(f"\n    UNEXPECTED {v.check} / {v.answer}: {'; '.join(v.problems)}" for v in bad[:5]),
+                      + "".join(f"\n    UNEXPECTED {v.check} / {v.answer}: {'; '.join(v.problems)}"
+                                + "".join(f"\n        {line.strip()}" for line in v.feedback.splitlines()
+                                          if line.strip().startswith("[FAIL]") and " sub-tests failed" not in line)
+                                for v in bad[:5]),
                       flush=True)
         if len(paths) > 1:  # a long run shows each bank's table as soon as it is done
             print_table({ex.check: rows[ex.check] for ex in exercises}, conditions)

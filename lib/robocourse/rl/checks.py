@@ -519,19 +519,14 @@ def _deploy_decimation(inputs, out):
     # judged on the states the targets came from (ticks apart), not on the wall clock, and on the median
     # step: a busy machine makes a brain late, and a brain on absolute deadlines then catches up with a
     # short step or two; neither is the student's doing
-    # the steps before the stall and after it (the one step across the stall left out): a brain that asks for
-    # every tick but was starved of CPU for a moment before the stall shows its own rhythm afterwards
+    # only the steps before the stall: after it a brain on absolute deadlines catches up with many short steps
+    # (measured on a loaded machine: 20 steps of 1-3 ticks for decimation 4)
     d = _deployment(inputs, out)
     tgts = _before_stall(d)
     if len(tgts) < 5:
         raise CheckFailed(f"only {len(tgts)} targets reached the robot before the brain stalled; the policy should "
                           f"run every {d.dec} ticks")
-    steps = list(np.diff([k - age for _, k, age in tgts]))
-    stall_t = out.get("stall_t")
-    if stall_t is not None:
-        after = [e for e in d.targets() if d.wall.get(e[1], -np.inf) > stall_t]
-        steps += list(np.diff([k - age for _, k, age in after]))
-    steps = np.array(steps)
+    steps = np.diff([k - age for _, k, age in tgts])
     median, quarter = float(np.median(steps)), float(np.percentile(steps, 25))
     if median < d.dec - 1:
         raise CheckFailed(f"the targets came from states {median:g} ticks apart (median; steps {steps[:8].tolist()} ...): "
