@@ -13,7 +13,8 @@ the lightest client there is (``start_joint_position_control``, then ``readOnce`
 
 Each under: idle; ``robocourse.rt.disturb.CpuLoad`` with 2 busy processes on the last CPU;
 the same on every CPU; and each with and without the real-time settings in the client
-(``robocourse.rt.settings.realtime``: SCHED_FIFO, locked + prefaulted memory, frozen gc;
+(``robocourse.rt.settings.realtime``: SCHED_FIFO 80 (``--priority``; never 99, where the kernel's
+watchdog threads run), locked + prefaulted memory, frozen gc; no child process inherits the policy;
 refused for an unprivileged user, and then the RT rows measure the default scheduler: the header
 says which). Round trip = the box's clock from sending state k to receiving the command for k
 (late ones included). Success = states of the motion answered before the next tick / states
@@ -77,24 +78,29 @@ def main(argv=None) -> int:
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--quick", action="store_true", help="1 s, 1 round")
     ap.add_argument("--only", choices=("franka", "ur"), help="run one driver's rows")
+    ap.add_argument("--priority", type=int, default=80,
+                    help="SCHED_FIFO priority of the client loop in the RT rows (default 80, as the other benchmarks; "
+                         "1..98: never 99, the kernel's watchdog threads run there)")
     a = ap.parse_args(argv)
     if a.quick:
         a.seconds, a.rounds = 1.0, 1
+    if not 1 <= a.priority <= 98:
+        ap.error(f"--priority {a.priority}: use 1..98 (99 belongs to the kernel's watchdog threads); the default is 80")
     if a.only == "ur":
         return ur_rows(a)
-    probe = set_scheduling("fifo", quiet=True)
+    probe = set_scheduling("fifo", a.priority, quiet=True)
     rt_ok = probe.ok
     reset_scheduling()
     print(f"CPUs {allowed_cpus()}, load average {os.getloadavg()[0]:.1f} (shared machine: other jobs run too); "
-          f"real-time scheduling {'available' if rt_ok else 'REFUSED (RT rows run SCHED_OTHER): ' + str(probe)}; "
-          f"scheduler now {current_scheduling()}")
+          f"real-time scheduling {'available: RT rows run the client at SCHED_FIFO ' + str(a.priority) if rt_ok else 'REFUSED (RT rows run SCHED_OTHER): ' + str(probe)}; "
+          f"scheduler now {current_scheduling()}; every child (box, CpuLoad) starts SCHED_OTHER")
     configs = [(ld, rt, phys) for ld in LOADS for rt in (False, True) for phys in (False, True)]
     results = {c: [] for c in configs}
     for r in range(a.rounds):
         for c in configs:           # interleaved: each round runs every configuration once
             ld, rt, phys = c
             with load(ld):
-                results[c].append(franka_roundtrip(a.seconds, physics=phys, realtime=rt))
+                results[c].append(franka_roundtrip(a.seconds, physics=phys, realtime=rt, priority=a.priority))
         print(f"round {r + 1}/{a.rounds} done", flush=True)
     print(f"\n{'load':<26}{'RT':<4}{'box':<7}{'p50 us':>16}{'p99 us':>21}{'max us':>22}{'success %':>24}"
           f"{'worst':>7}{'reflex@' + str(LIMIT):>11}{'ms/s':>7}")

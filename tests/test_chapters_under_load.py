@@ -42,12 +42,7 @@ CHAPTERS = sorted(p.relative_to(ROOT).as_posix() for p in ROOT.glob("chapters/*.
 #: per cell, as nbmake's timeout: a safety net far above the 60 s per-notebook goal, which
 #: benchmarks/notebook_times.py measures
 CELL_TIMEOUT_S = 240
-KNOWN_LOAD_FAILURES = {
-    "chapters/05_hardware_drivers.ipynb":
-        "under the load it failed 1 of 3 runs here with pylibfranka's 'Motion aborted by reflex! "
-        "[communication_constraints_violation]' (the simulated FR3 missed libfranka's 1 kHz deadlines); a flaky "
-        "chapter cannot gate CI; owners: the ur/franka helpers (issue 25, chapter 5)",
-}
+KNOWN_LOAD_FAILURES: dict[str, str] = {}
 
 
 def claims_out(notebook: str, condition: str, records: list[dict]) -> None:

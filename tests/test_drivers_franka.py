@@ -19,7 +19,7 @@ import pytest
 
 pylibfranka = pytest.importorskip("pylibfranka", reason="pylibfranka (PyPI, Linux x86_64) is not installed")
 
-from robocourse.drivers import box_stats, start_franka_box  # noqa: E402
+from robocourse.drivers import box_stats, box_watch, start_franka_box  # noqa: E402
 from robocourse.drivers import franka_wire as fw  # noqa: E402
 
 LENIENT = 100_000       # lost cycles in a row before the reflex, when a test is not about the reflex
@@ -227,6 +227,37 @@ def test_25_silent_cycles_raise_communication_constraints_violation_then_recover
         assert s["max_lost_in_row"] >= 20
     finally:
         box.stop()
+
+
+def test_a_watched_client_that_sleeps_30_ms_trips_the_reflex_and_the_box_says_how_much_was_the_machine_s():
+    """The box's ``watch`` (the grader's rule on a shared machine) forgives only the lost cycles the
+    client's thread spent waiting for a CPU: its own 30 ms sleep still trips the reflex."""
+    box = start_franka_box()                                # the robot's limit: 20 lost in a row
+    try:
+        robot = pylibfranka.Robot(box.host, IGNORE)
+        assert box_watch(box) == "ok"
+        assert box_stats(box)["watching"] is True
+        control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+        state, _ = control.readOnce()
+        hold = pylibfranka.JointPositions(list(state.q))
+        with pytest.raises(pylibfranka.ControlException, match="communication_constraints_violation"):
+            for k in range(300):                            # bounded: the reflex ends the motion
+                control.writeOnce(hold)
+                if k == 100:
+                    time.sleep(0.03)                        # the loop's own doing
+                control.readOnce()
+        del control
+        s = box_stats(box)
+        assert s["reflexes"] == 1 and s["max_own_lost_in_row"] >= 20
+        assert "waited" in s["last_reflex"] and "for a CPU" in s["last_reflex"]
+        robot.automatic_error_recovery()
+    finally:
+        box.stop()
+
+
+def test_watch_of_a_thread_that_does_not_exist_keeps_the_robot_s_plain_rule(box):
+    assert box_watch(box, tid=2 ** 22 + 12345).startswith("unavailable: /proc/")
+    assert box_stats(box)["watching"] is False
 
 
 def test_success_rate_is_the_share_of_the_last_100_commands(box):

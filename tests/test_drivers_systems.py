@@ -127,6 +127,22 @@ def test_box_dies_with_its_parent():
         parent.stdin.close()
 
 
+def test_a_box_started_from_a_sched_fifo_thread_starts_sched_other():
+    """A benchmark's real-time loop starting a box (or any child) must not hand it SCHED_FIFO."""
+    from robocourse.rt import settings
+
+    if not settings.set_scheduling("fifo", 80, quiet=True).ok:
+        pytest.skip("SCHED_FIFO refused here (not root, no rtprio): nothing to inherit")
+    try:
+        box = drivers.start_franka_box(realtime=False)
+    finally:
+        settings.reset_scheduling()
+    try:
+        assert os.sched_getscheduler(box.pid) == os.SCHED_OTHER
+    finally:
+        box.stop()
+
+
 @pytest.mark.parametrize("plugin,cycle", [("robocourse/URStyleSystem", ur_cycles)], ids=["ur"])
 def test_joint_trajectory_controller_runs_a_trajectory_through_the_box(plugin, cycle):
     from robocourse.msgs.builtin_interfaces import Duration

@@ -187,11 +187,12 @@ def test_servoj_trajectory_at_500_hz_is_tracked_within_50_mrad(fresh_box):
             assert c.servoJ(list(target), 0.0, 0.0, 0.002, 0.03, 2000)
             err.append(np.max(np.abs(target - r.getActualQ())))
             c.waitPeriod(t_cycle)
-        assert c.servoStop(10.0)
+        assert c.servoStop(10.0)         # answers at once, as ur_rtde's script does; the arm then decelerates
         # lookahead 0.03 s on a target moving at most 0.94 rad/s: about 30 mrad of lag, the stated bound 50
         assert max(err[50:]) < 0.05, max(err[50:])
+        assert wait_for(lambda: read_stats(fresh_box.host)["motion"] == "hold", 2.0)
         stats = read_stats(fresh_box.host)
-        assert stats["cmd_servoj"] > 300 and stats["cmd_servo_stop"] == 1 and stats["motion"] == "hold"
+        assert stats["cmd_servoj"] > 300 and stats["cmd_servo_stop"] == 1 and stats.get("watchdog_stops", 0) == 0
     finally:
         c.stopScript()
         c.disconnect()
@@ -205,8 +206,8 @@ def test_speedj_then_speedstop(fresh_box):
         assert c.speedJ([0.3, 0, 0, 0, 0, -0.2], 1.5, 0.0)
         assert wait_for(lambda: abs(r.getTargetQd()[0] - 0.3) < 1e-9, 1.0)   # 0.3 rad/s reached at 1.5 rad/s^2
         assert abs(r.getTargetQd()[5] + 0.2) < 1e-9
-        assert c.speedStop(3.0)                            # blocks until stopped
-        assert r.getTargetQd() == [0.0] * 6 or wait_for(lambda: r.getTargetQd() == [0.0] * 6, 0.1)
+        assert c.speedStop(3.0)                            # answers at once; 0.3 rad/s at 3 rad/s^2: 0.1 s to rest
+        assert wait_for(lambda: r.getTargetQd() == [0.0] * 6, 2.0)
         q = r.getTargetQ()
         time.sleep(0.1)
         assert r.getTargetQ() == q
@@ -488,20 +489,22 @@ def test_the_other_supported_control_calls(fresh_box):
         np.testing.assert_allclose(c.getForwardKinematics(), r.getActualTCPPose(), atol=1e-3)
         # ur_rtde sends getActualToolFlangePose as a real-time command and reads the result registers
         # without waiting for the robot's answer (on a real UR too): the second call returns the first's
-        c.getActualToolFlangePose()
-        time.sleep(0.02)
-        flange = np.array(c.getActualToolFlangePose())
+        # (how long the robot takes to answer depends on the machine: ask until an answer is there)
         tcp = np.array(r.getActualTCPPose())
+        assert wait_for(lambda: abs(np.linalg.norm(tcp[:3] - np.array(c.getActualToolFlangePose())[:3]) - 0.1) < 1e-3)
+        flange = np.array(c.getActualToolFlangePose())
         assert abs(np.linalg.norm(tcp[:3] - flange[:3]) - 0.1) < 1e-3   # the TCP 10 cm out along the flange z
         assert c.setPayload(1.5, [0, 0, 0.05])
         assert wait_for(lambda: r.getPayload() == 1.5 and r.getPayloadCog() == [0, 0, 0.05])
         assert c.isJointsWithinSafetyLimits(HOME) and not c.isJointsWithinSafetyLimits([0, 0, 4.0, 0, 0, 0])
         assert c.isSteady()
         goal = list(np.array(HOME) + [0.6, 0, 0, 0, 0, 0])
-        assert c.moveJ(goal, 0.5, 1.0, True)
-        time.sleep(0.3)
+        # a slow move (about 3 s) stopped once it is under way: a loaded machine may hold this test
+        # off the CPU for a while between the two calls, never long enough for the move to end
+        assert c.moveJ(goal, 0.2, 1.0, True)
+        assert wait_for(lambda: r.getTargetQ()[0] > HOME[0] + 0.02)
         c.stopJ(2.0, False)                                            # synchronous (ur_rtde returns nothing)
-        assert r.getTargetQd() == [0.0] * 6 or wait_for(lambda: r.getTargetQd() == [0.0] * 6, 0.1)
+        assert wait_for(lambda: r.getTargetQd() == [0.0] * 6)
         assert r.getTargetQ()[0] < goal[0] - 0.1
         assert wait_for(lambda: np.max(np.abs(r.getActualQd())) < 1e-4, 3.0)
         assert c.zeroFtSensor()                                        # at rest: the reading becomes ~0

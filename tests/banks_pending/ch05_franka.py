@@ -1,11 +1,12 @@
 """Chapter 5's Franka exercise (ch05.franka_loop): wrong answers, one per stated property, and a
-differently written correct one. Each runs pylibfranka against its own simulated FR3 under
-chapter 1's CPU load, in the grading sandbox."""
+differently written correct one. Each runs pylibfranka against its own simulated FR3 in the
+grading sandbox; the lost cycles the machine caused (the loop's thread waiting for a CPU) are
+not counted against the answer, so the verdicts hold under chapter 1's CPU load too."""
 
 from robocourse.grading.bank import Answer, Exercise
 
 NB = "05_hardware_drivers_exercises"
-ALL_BUT = {"the motion runs to its end under CPU load and pauses": 2.0,
+ALL_BUT = {"the motion runs to its end through the pauses": 2.0,
            "t is the robot's time (readOnce's durations)": 1.0,
            "starts where the arm is, ends at q0 + offset(seconds)": 0.5,
            "ends with motion_finished": 0.5,

@@ -71,6 +71,26 @@ def box_stats(box: BoxProcess, timeout: float = 1.0) -> dict:
     raise TimeoutError(f"the Franka box at {box.host} did not answer its monitor within {timeout} s (is it running?)")
 
 
+def box_watch(box: BoxProcess, tid: int | None = None, timeout: float = 1.0) -> str:
+    """Tell a Franka box which thread runs the client (default: the calling one), so it counts
+    against the client only the lost cycles that thread did not spend waiting for a CPU (a
+    grader's rule on a shared machine; see :mod:`robocourse.drivers.franka_box`). Returns "ok"
+    or "unavailable: why" (the box then keeps the robot's plain rule)."""
+    import socket
+    import threading
+
+    tid = threading.get_native_id() if tid is None else int(tid)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.settimeout(timeout / 3)
+        for _attempt in range(3):
+            s.sendto(f"watch {tid}".encode(), (box.host, box.ports["monitor"]))
+            try:
+                return s.recv(1024).decode(errors="replace")
+            except (TimeoutError, ConnectionRefusedError):
+                continue
+    raise TimeoutError(f"the Franka box at {box.host} did not answer its monitor within {timeout} s (is it running?)")
+
+
 def start_ur_box(host: str | None = None, initial_positions=None, realtime: bool = False, physics: bool = True,
                  powered: bool = True, unlock_delay: float | None = None) -> BoxProcess:
     """Start a UR-style box process (a UR e-Series controller for ur_rtde); ``box.host`` is its
@@ -97,4 +117,4 @@ def start_ur_box(host: str | None = None, initial_positions=None, realtime: bool
 
 
 __all__ = ["ARM_JOINTS", "CONTROLLERS_YAML", "FR3_CONTROLLERS_YAML", "FR3_JOINTS", "BoxProcess", "BoxStartError",
-           "arm_urdf", "box_stats", "fr3_urdf", "start_franka_box", "start_ur_box"]
+           "arm_urdf", "box_stats", "box_watch", "fr3_urdf", "start_franka_box", "start_ur_box"]

@@ -5,12 +5,14 @@ write for a real FR3: start joint position control, command ``q0 + offset(t)`` e
 ``t`` the robot's time since the start (the sum of ``readOnce()``'s durations), end with
 ``motion_finished`` once ``t >= seconds``; if the robot stops the motion (``ControlException``),
 call ``automatic_error_recovery()`` and let the exception out. The probe
-(:mod:`robocourse.drivers.franka_probes`) runs it against a simulated FR3 under chapter 1's CPU
-load with a few short pauses, then once with a 30 ms stall. Sub-tests (4.5 points):
+(:mod:`robocourse.drivers.franka_probes`) runs it against a simulated FR3 with a few short pauses
+inside ``offset``, then once with a 30 ms stall. Sub-tests (4.5 points):
 
-- the motion runs to its end under the load test (no reflex, no exception; a communication
-  reflex is retried, up to 5 runs in all, since a loaded grading machine can stall any loop
-  once): 2
+- the motion runs to its end through the pauses (no reflex, no exception): 2. What the machine
+  did is kept apart from what the code did (issue 26): the box counts against the loop only the
+  lost cycles its thread did not spend waiting for a CPU (``franka_box``'s ``watch``), so a
+  correct loop on a loaded grading machine scores full, and the feedback says how many lost
+  cycles were the machine's
 - ``t`` is the robot's time (it jumps by the pause after each pause; a cycle counter does not): 1
 - it starts where the arm is and ends at ``q0 + offset(seconds)``: 0.5
 - it ends with ``motion_finished`` (not by dropping the control, which stops the robot): 0.5
@@ -30,13 +32,13 @@ from robocourse.grading import CheckFailed, Failures, SubTest, register
 from robocourse.grading.schema import Any, Dict, List, Map, Number, Opt, Str
 
 from . import franka_wire as fw
-from .franka_probes import LOAD_PROCESSES, PAUSE_MS, PAUSES, SECONDS, STALL_MS, franka_loop_probe
+from .franka_probes import PAUSE_MS, PAUSES, SECONDS, STALL_MS, franka_loop_probe
 
 
 def _inputs(rng):
     amplitude = [round(float(a), 3) for a in rng.uniform(0.05, 0.15, 7) * rng.choice([-1, 1], 7)]
     times = sorted(round(float(t), 3) for t in rng.uniform(0.2, SECONDS - 0.2, PAUSES))
-    return {"seconds": SECONDS, "amplitude": amplitude, "load_processes": LOAD_PROCESSES,
+    return {"seconds": SECONDS, "amplitude": amplitude,
             "pauses": [[t, int(rng.integers(PAUSE_MS[0], PAUSE_MS[1] + 1))] for t in times],
             "stall_at": round(float(rng.uniform(0.1, 0.3)), 3), "stall_ms": STALL_MS}
 
@@ -60,8 +62,11 @@ def _phase_a(inputs, out) -> dict:
     if a["raised"]:
         why = f" (the robot: {stats.get('last_reflex')})" if stats.get("last_reflex") else ""
         tries = f" in each of {a['attempts']} runs" if a["attempts"] > 1 else ""
-        raise CheckFailed(f"run_motion raised {a['raised']}{tries}: {a['text']}{why}. Under the load test (CPU load, pauses "
-                          f"of {', '.join(f'{ms} ms at t = {t} s' for t, ms in inputs['pauses'])}) the loop must keep "
+        own = (f"; your loop's own share of the lost cycles reached {stats.get('max_own_lost_in_row')} in a row, "
+               f"apart from {stats.get('lost_machine', 0)} cycles the machine held it off the CPU"
+               if stats.get("watching") else "")
+        raise CheckFailed(f"run_motion raised {a['raised']}{tries}: {a['text']}{why}{own}. Through the pauses "
+                          f"({', '.join(f'{ms} ms at t = {t} s' for t, ms in inputs['pauses'])}) the loop must keep "
                           f"the robot moving: nothing in the loop may block for {fw.MAX_LOST_IN_ROW} cycles, and the "
                           "command must follow the robot's clock (t from readOnce's durations)")
     if stats.get("reflexes"):
@@ -77,9 +82,12 @@ def _runs_to_the_end(inputs, out):
         raise CheckFailed("run_motion never started a motion: start_joint_position_control(ControllerMode.JointImpedance)")
     if not s.get("commands_ok"):
         raise CheckFailed("the robot never received a command: call control.writeOnce(JointPositions(q)) each cycle")
-    return (f"{s.get('commands_ok')} of {s.get('cycles_moving')} states answered in time under CPU load and "
-            f"{len(inputs['pauses'])} pauses; longest run of lost cycles {s.get('max_lost_in_row')} "
-            f"(the robot stops at {fw.MAX_LOST_IN_ROW})")
+    machine = (f"; the machine held the loop off the CPU for {s.get('lost_machine')} cycles past the robot's limit "
+               "(not counted against your code)" if s.get("lost_machine") else "")
+    own = (f"your loop's longest own run {s.get('max_own_lost_in_row')}, " if s.get("watching") else "")
+    return (f"{s.get('commands_ok')} of {s.get('cycles_moving')} states answered in time through "
+            f"{len(inputs['pauses'])} pauses; longest run of lost cycles {s.get('max_lost_in_row')} ({own}the robot "
+            f"stops at {fw.MAX_LOST_IN_ROW}){machine}")
 
 
 def _gated(judge):
@@ -157,7 +165,7 @@ def _reflex_reaches_the_caller(inputs, out):
 
 register("ch05.franka_loop", uses=("run_motion",), probe=franka_loop_probe, inputs=_inputs, time_limit=90, timing=True,
          schema=SCHEMA,
-         subtests=[SubTest("the motion runs to its end under CPU load and pauses", 2.0, _runs_to_the_end),
+         subtests=[SubTest("the motion runs to its end through the pauses", 2.0, _runs_to_the_end),
                    SubTest("t is the robot's time (readOnce's durations)", 1.0, _gated(_robot_time)),
                    SubTest("starts where the arm is, ends at q0 + offset(seconds)", 0.5, _gated(_start_and_end)),
                    SubTest("ends with motion_finished", 0.5, _gated(_motion_finished)),

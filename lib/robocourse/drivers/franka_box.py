@@ -41,12 +41,26 @@ waits for a response (pitfall C8), so a server thread inside the client's proces
 
 A monitor socket (UDP, the box's own, not part of libfranka's protocol) answers ``stats`` with
 the counters as JSON: what a benchmark or a grader reads without touching the client.
+
+The machine apart from the client (ours, for grading; off unless asked): ``watch <tid>`` on the
+monitor names the client's thread (the one calling ``readOnce``/``writeOnce``). The box then
+reads that thread's run-queue wait (``/proc/<tid>/schedstat``: time it was runnable but another
+task had the CPU) when a run of lost cycles starts, and counts against the client only the lost
+cycles it did not spend waiting for a CPU: the communication reflex trips when the client's *own*
+share of the silence (its code running, or blocking: a sleep, a slow call) reaches the limit.
+A correct loop on a loaded machine, held off the CPU for 30 ms, keeps the motion going (the
+robot extrapolates, as it does for any lost cycle; ``lost_machine`` counts those cycles); a loop
+that sleeps 30 ms trips it as the robot would. A robot's own controller never starves, and a
+real-time client is not held off the CPU by ordinary load: this is the same verdict on a shared
+grading machine. Where the file cannot be read (no CONFIG_SCHED_INFO, another PID namespace),
+``watch`` answers ``unavailable`` and the box keeps the robot's plain rule.
 """
 
 from __future__ import annotations
 
 import collections
 import json
+import os
 import socket
 import time
 from dataclasses import dataclass, field
@@ -60,8 +74,10 @@ from .ticker import TickingBox
 
 _RING = 1 << 15
 #: ours: a starved box sends fewer states than milliseconds pass, so a client silent this long (ms of
-#: wall time) with at least SILENCE_LOST states unanswered also trips the communication reflex
+#: wall time since its last command) with at least SILENCE_LOST states unanswered also trips the communication reflex
 SILENCE_MS, SILENCE_LOST = 25, 5
+#: a watched client (``watch``): the same SILENCE_MS and SILENCE_LOST, the silence counted from when the first
+#: unanswered state was sent, less the time the client waited for a CPU or ran (never stricter than unwatched)
 #: the thresholds of the discontinuity reflexes (published limits x our margin, see franka_wire)
 _ACC = fw.MAX_JOINT_ACCELERATION * fw.DISCONTINUITY_MARGIN
 _JERK = fw.MAX_JOINT_JERK * fw.DISCONTINUITY_MARGIN
@@ -124,6 +140,67 @@ class _Motion:
     received: tuple | None = None     # (t, q_c) of the last position command that came (not extrapolated)
 
 
+class _ClientThread:
+    """The client's thread as the kernel sees it (``/proc/<tid>/schedstat`` and ``stat``): how
+    long, since :meth:`waited_ms` last restarted, it was runnable but not running. Finished
+    waits come from schedstat's run-queue wait (the kernel adds a wait when it ends); a wait
+    still going on is a thread in state R whose CPU time and wait both stand still between two
+    looks (a thread running its own code advances its CPU time within a scheduler tick)."""
+
+    def __init__(self, tid: int):
+        self.tid = tid
+        self.fds = [os.open(f"/proc/{tid}/schedstat", os.O_RDONLY), os.open(f"/proc/{tid}/stat", os.O_RDONLY)]
+        if self._look() is None:
+            self.close()
+            raise ValueError(f"/proc/{tid}/schedstat has no run-queue wait here")
+        self.base_wait, self.base_cpu, self.last, self.last_ns = 0, 0, (0, 0), time.monotonic_ns()
+        self.last_ms = self.ran_ms = 0.0
+        self.queued_since: int | None = None
+
+    def _look(self) -> tuple[int, int, bool] | None:
+        """(CPU time ns, run-queue wait ns, runnable) or None if the thread is gone."""
+        try:
+            cpu, wait = (int(x) for x in os.pread(self.fds[0], 128, 0).split()[:2])
+            stat = os.pread(self.fds[1], 1024, 0)
+        except (OSError, ValueError):
+            return None
+        state = stat[stat.rfind(b")") + 2:stat.rfind(b")") + 3]
+        return cpu, wait, state == b"R"
+
+    def waited_ms(self, restart: bool) -> float:
+        now = time.monotonic_ns()
+        got = self._look()
+        if got is None:
+            return 0.0
+        cpu, wait, runnable = got
+        if restart:
+            self.base_wait, self.base_cpu, self.queued_since = wait, cpu, None
+        elif (cpu, wait) != self.last or not runnable:
+            self.queued_since = None          # it ran, or a wait ended (and is in ``wait`` now), or it sleeps
+        elif self.queued_since is None:
+            self.queued_since = self.last_ns  # runnable and standing still since the last look
+        self.last, self.last_ns = (cpu, wait), now
+        ongoing = now - self.queued_since if self.queued_since is not None else 0
+        self.last_ms = (wait - self.base_wait + ongoing) / 1e6
+        self.ran_ms = (cpu - self.base_cpu) / 1e6
+        return self.last_ms
+
+    def where(self) -> str:
+        """Where the thread is now, as the kernel says (its state and wait channel)."""
+        try:
+            stat = os.pread(self.fds[1], 1024, 0)
+            state = stat[stat.rfind(b")") + 2:stat.rfind(b")") + 3].decode()
+            with open(f"/proc/{self.tid}/wchan") as f:
+                return f", now in state {state} at {f.read().strip() or '-'}"
+        except (OSError, ValueError):
+            return ""
+
+    def close(self) -> None:
+        for fd in self.fds:
+            os.close(fd)
+        self.fds = []
+
+
 class FrankaBox(TickingBox):
     rephase = True       # a late tick still leaves the client a whole millisecond to answer
     def __init__(self, host: str | None = None, command_port: int = fw.COMMAND_PORT, initial_positions=None,
@@ -177,6 +254,9 @@ class FrankaBox(TickingBox):
         self.tau_ext = np.zeros(n)
         self.last_reflex = ""
         self._values = self._state_template()
+        self._watch: _ClientThread | None = None   # the client's thread (``watch``), or None
+        self.max_own_lost_in_row = 0           # the longest run of lost cycles counted against the client
+        self._unanswered_since_ns = 0          # when the first state of the current run of lost cycles was sent
 
     # --- the state datagram -------------------------------------------------------------------------
     def _state_template(self) -> np.ndarray:
@@ -441,11 +521,33 @@ class FrankaBox(TickingBox):
                 return
             except OSError:
                 return
-            if data.strip() == b"stats":
-                try:
-                    self.monitor.sendto(json.dumps(self.stats()).encode(), addr)
-                except OSError:
-                    self.counters["monitor_errors"] += 1
+            words = data.split()
+            if words == [b"stats"]:
+                reply = json.dumps(self.stats()).encode()
+            elif len(words) == 2 and words[0] == b"watch" and words[1].isdigit():
+                reply = self._start_watch(int(words[1])).encode()
+            else:
+                self.counters["monitor_malformed"] += 1
+                continue
+            try:
+                self.monitor.sendto(reply, addr)
+            except OSError:
+                self.counters["monitor_errors"] += 1
+
+    def _start_watch(self, tid: int) -> str:
+        """Attribute lost cycles between the client thread ``tid`` and the machine (see the module
+        docstring); 'ok', or 'unavailable: why' (the robot's plain rule stays)."""
+        if self._watch is not None:
+            self._watch.close()
+            self._watch = None
+        try:
+            self._watch = _ClientThread(tid)
+        except OSError as exc:
+            return f"unavailable: /proc/{tid}: {exc.strerror}"
+        except ValueError as exc:
+            return f"unavailable: {exc}"
+        self.counters["watches"] += 1
+        return "ok"
 
     # --- the tick -----------------------------------------------------------------------------------
     def _apply(self, cmd: tuple) -> None:
@@ -526,6 +628,36 @@ class FrankaBox(TickingBox):
             m.tau.push(m.tau.x[0], t)
             np.clip(m.tau.x[0] + arm.gravity(), -arm.effort_limits, arm.effort_limits, out=arm.cmd)
 
+    def _silent_ms(self) -> float:
+        """How long (ms of wall time) the first state of the current run of lost cycles has been
+        waiting for its answer: the box's own starvation before it sent that state is not the client's."""
+        return (time.monotonic_ns() - self._unanswered_since_ns) / 1e6
+
+    def _silence_too_long(self, machine_ms: float, attribute: bool = True) -> bool:
+        """Unwatched (the robot's rule as a starved box can keep it): silent for SILENCE_MS of wall
+        time since the last command, with SILENCE_LOST states unanswered. Watched: the same, the
+        silence counted from when the first unanswered state was sent, less the time the client
+        waited for a CPU or ran (a busy client working through states a starved box sent late is
+        left to the robot's own rule, lost cycles minus its waits)."""
+        if self._watch is None or not attribute:
+            silent = (time.monotonic_ns() - self._last_command_ns) / 1e6
+            return silent >= SILENCE_MS and self.lost_in_row >= SILENCE_LOST
+        return (self.lost_in_row >= SILENCE_LOST
+                and self._silent_ms() - machine_ms - self._watch.ran_ms >= SILENCE_MS)
+
+    def _machine_note(self) -> str:
+        if self._watch is None:
+            return ""
+        return (f"; the client waited {self._watch.last_ms:.0f} ms of it for a CPU, ran {self._watch.ran_ms:.0f} ms"
+                f"{self._watch.where()}")
+
+    def _machine_ms(self) -> float:
+        """How much of the current run of lost cycles (ms) the watched client spent waiting for a
+        CPU (0 when nothing is watched)."""
+        if self._watch is None:
+            return 0.0
+        return self._watch.waited_ms(restart=self.lost_in_row == 1)
+
     def tick(self) -> None:
         c = self.counters
         if self.motion is not None and self._last_state_moving:   # a state of this motion awaits its command
@@ -542,12 +674,19 @@ class FrankaBox(TickingBox):
                 self.max_lost_in_row = max(self.max_lost_in_row, self.lost_in_row)
                 self.window.append(0)
                 # the robot's rule is 20 lost cycles in a row; a starved box sends fewer states
-                # than milliseconds pass, so silence as long as 20 cycles counts too (and only
-                # while a state is unanswered: a box that stalled itself is not the client's fault)
-                silent_ms = (time.monotonic_ns() - self._last_command_ns) // 1_000_000
-                if self.lost_in_row >= self.max_lost or (silent_ms >= SILENCE_MS and self.lost_in_row >= SILENCE_LOST):
-                    self._reflex(fw.ERR_COMMUNICATION_CONSTRAINTS_VIOLATION)
+                # than milliseconds pass, so a long silence in wall time trips it too
+                # (_silence_too_long: a box that stalled itself is not the client's fault)
+                if self.lost_in_row == 1:     # the state sent last tick is the first one left unanswered
+                    self._unanswered_since_ns = int(self._sent_ns[self.message_id % _RING])
+                machine_ms = self._machine_ms()
+                own = self.lost_in_row - machine_ms
+                self.max_own_lost_in_row = max(self.max_own_lost_in_row, max(0, int(own)))
+                if own >= self.max_lost or self._silence_too_long(machine_ms):
+                    self._reflex(fw.ERR_COMMUNICATION_CONSTRAINTS_VIOLATION,
+                                 detail=f"{self.lost_in_row} lost in a row" + self._machine_note())
                 else:
+                    if self.lost_in_row >= self.max_lost or self._silence_too_long(0.0, attribute=False):
+                        c["lost_machine"] += 1     # the robot's rule would trip: the machine's doing
                     self._extrapolate(self.message_id)
         else:
             self.pending = None
@@ -587,5 +726,6 @@ class FrankaBox(TickingBox):
         return {**rtt_us, "message_id": self.message_id, "last_reflex": self.last_reflex, "robot_mode": self.robot_mode,
                 "errors": fw.error_names(self.errors), "last_motion_errors": fw.error_names(self.reflex_reason),
                 "lost_in_row": self.lost_in_row, "max_lost_in_row": self.max_lost_in_row, "max_lost": self.max_lost,
+                "max_own_lost_in_row": self.max_own_lost_in_row, "watching": self._watch is not None,
                 "success_rate": (sum(self.window) / len(self.window)) if self.window else 0.0,
                 "clients": len(self.conns), "moving": self.motion is not None, **self.counters}

@@ -4,16 +4,23 @@ Runs in the student's place (the grading sandbox); it gathers, the judge in
 :mod:`robocourse.drivers.checks` decides. Two phases, each on the same box (its own process, its
 own 127.0.0.x, the robot's limit of 20 lost cycles):
 
-A. the load test: ``run_motion(robot, offset, seconds)`` under chapter 1's CPU load
-   (:class:`robocourse.rt.disturb.CpuLoad`), with the grader's ``offset(t)`` pausing a few times
-   (seeded, shown in the feedback) for less than 20 cycles (6-12 ms, extended to at least 3
-   states of the robot's clock, a starved box sending fewer than one per ms, but never past
-   15 ms): a gc pause or a slow step,
-   as a real loop meets them. Before it, the grader warms pylibfranka up with a short hold of its
-   own, so a cold first cycle is not the student's. A communication reflex is retried (up to
-   ``ATTEMPTS`` runs in all: a loaded grading machine can stall any loop once; a loop that blocks
-   by itself trips it every time); the record is the last run's, with ``attempts``. Recorded: every ``t`` the loop passed to ``offset``, what it returned or
-   raised, the robot's state afterwards and the box's counters.
+A. the pause test: ``run_motion(robot, offset, seconds)`` with the grader's ``offset(t)`` pausing
+   a few times (seeded, shown in the feedback) for less than 20 cycles (6-12 ms, extended to at
+   least 3 states of the robot's clock, a starved box sending fewer than one per ms, but never
+   past 14 ms): a gc pause or a slow step, as a real loop meets them.
+
+   What the student's code controls is judged apart from what the machine did: the box is told
+   which thread runs the loop (:func:`robocourse.drivers.box_watch`) and counts against it only
+   the lost cycles that thread did not spend waiting for a CPU (a grading sandbox cannot give
+   the loop real-time priority, and a shared machine holds any loop off the CPU now and then;
+   the box's counters ``lost_machine`` and ``max_own_lost_in_row`` show both). The probe adds no
+   CPU load of its own: what the machine does is not what is graded. Before the motion, the
+   grader warms pylibfranka up with a short hold of its own, so a cold first cycle is not the
+   student's. Where the box cannot watch the thread (``watching`` false), a communication reflex
+   is retried, up to ``ATTEMPTS`` runs in all (the record is the last run's, with
+   ``attempts``). Recorded: every ``t`` the loop passed to ``offset``, what it returned or
+   raised, the robot's state afterwards and the box's counters. The objects that exist before the
+   student's code runs (the grader's) are frozen out of the garbage collector (``gc.freeze()``).
 B. the stall: the same call, with ``offset`` blocking 30 ms once (and until the robot has sent
    25 states): the robot must stop with communication_constraints_violation, and the loop must
    recover and let the exception out.
@@ -21,6 +28,7 @@ B. the stall: the same call, with ``offset`` blocking 30 ms once (and until the 
 
 from __future__ import annotations
 
+import gc
 import math
 import time
 
@@ -30,16 +38,16 @@ SECONDS = 1.0              # s of robot time per motion
 PAUSES = 3                 # pauses inside the loop during phase A, each below the robot's limit
 PAUSE_MS = (6, 12)         # ms, whole numbers
 STALL_MS = 30              # the stall of phase B: above the robot's 20 lost cycles
-ATTEMPTS = 5               # phase A runs again (up to this many times) after a communication reflex
-LOAD_PROCESSES = 1         # chapter 1's CpuLoad: one busy process beside the loop
+ATTEMPTS = 5               # phase A runs again after a communication reflex, where the box cannot watch the loop
 
 
-def _offset(amplitude, seconds, pauses, record, robot_ms, min_states=3, max_ms=15.0):
+def _offset(amplitude, seconds, pauses, record, robot_ms, min_states=3, max_ms=14.0):
     """The grader's offset(t): a smooth cosine from 0 to ``amplitude`` over ``seconds``. It pauses
     at each (t, ms) of ``pauses`` once, when t first reaches it (inside the student's cycle): for
     ``ms`` of wall time, and until the robot has sent at least ``min_states`` states meanwhile (a
     starved box sends fewer than one per ms), never longer than ``max_ms`` of wall time
-    (``robot_ms()`` reads the robot's clock from the box's monitor)."""
+    (``robot_ms()`` reads the robot's clock from the box's monitor, None if the box did not
+    answer at once: a starved box must not stretch the grader's pause)."""
     pending = sorted((float(t), float(ms)) for t, ms in pauses)
 
     def offset(t):
@@ -50,12 +58,49 @@ def _offset(amplitude, seconds, pauses, record, robot_ms, min_states=3, max_ms=1
             ms = pending.pop(0)[1]
             start, t0 = robot_ms(), time.monotonic()
             time.sleep(ms / 1000)
-            while robot_ms() - start < min_states and time.monotonic() - t0 < max_ms / 1000:
-                time.sleep(0.0005)
+            # then until the robot has sent min_states, in few long sleeps (each wake-up waits for
+            # a CPU on a loaded machine, and the box counts that wait as the machine's)
+            while start is not None and (left := max_ms / 1000 - (time.monotonic() - t0)) > 0:
+                now = robot_ms()
+                missing = 1 if now is None else min_states - (now - start)
+                if missing <= 0:
+                    break
+                time.sleep(min(missing * 1e-3, left))
         s = min(max(t / seconds, 0.0), 1.0)
         return [a * (1 - math.cos(math.pi * s)) / 2 for a in amplitude]
 
     return offset
+
+
+class _RobotClock:
+    """The box's robot clock (``message_id``, ms) from its monitor socket; None when the answer
+    does not come within ``timeout`` (a late answer is read, and ignored, by the next call)."""
+
+    def __init__(self, box, timeout: float):
+        import socket
+
+        self.address = (box.host, box.ports["monitor"])
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.timeout = timeout
+
+    def __call__(self) -> int | None:
+        import json
+
+        self.sock.setblocking(False)
+        try:
+            while True:
+                self.sock.recv(1 << 16)         # answers that came too late
+        except (BlockingIOError, ConnectionRefusedError):
+            pass
+        self.sock.settimeout(self.timeout)
+        self.sock.sendto(b"stats", self.address)
+        try:
+            return int(json.loads(self.sock.recv(1 << 16)).get("message_id", 0))
+        except (TimeoutError, ConnectionRefusedError, ValueError):
+            return None
+
+    def close(self) -> None:
+        self.sock.close()
 
 
 def _warm_up(robot, pylibfranka) -> None:
@@ -72,7 +117,7 @@ def _warm_up(robot, pylibfranka) -> None:
                 control.readOnce()
     except pylibfranka.ControlException:     # this machine stalled the grader's own loop: start clean
         control = None
-        robot.automatic_error_recovery()
+        _recover(robot)
     del control
 
 
@@ -92,51 +137,72 @@ def _call(run_motion, robot, offset, seconds) -> dict:
 
 
 _COUNTS = ("cycles_moving", "commands_ok", "lost", "late", "reflexes", "motions", "motions_finished", "tcp_StopMove",
-           "box_ticks_skipped")
-_STATS = ("cycles_moving", "commands_ok", "lost", "late", "max_lost_in_row", "reflexes", "motions",
-          "motions_finished", "tcp_StopMove", "box_ticks_skipped", "last_reflex")
+           "box_ticks_skipped", "box_late_ticks", "lost_machine")
+_STATS = ("cycles_moving", "commands_ok", "lost", "late", "max_lost_in_row", "max_own_lost_in_row", "lost_machine",
+          "reflexes", "motions", "motions_finished", "tcp_StopMove", "box_ticks_skipped", "box_late_ticks",
+          "last_reflex", "watching")
+
+
+def _recover(robot) -> None:
+    """automatic_error_recovery(), again after a moment if the robot still holds a motion that
+    is ending (a control the student's code has not released yet)."""
+    import pylibfranka
+
+    for attempt in range(3):
+        try:
+            robot.automatic_error_recovery()
+            return
+        except pylibfranka.ControlException:
+            if attempt == 2:
+                raise
+            import gc
+
+            gc.collect()              # a control object kept alive by a traceback
+            time.sleep(0.05)
 
 
 def franka_loop_probe(inputs, run_motion):
     import pylibfranka
 
-    from robocourse.rt.disturb import CpuLoad
-
-    from . import box_stats, start_franka_box
+    from . import box_stats, box_watch, start_franka_box
 
     out = {"setup": "", "a": None, "b": None}
     box = start_franka_box()
     try:
         robot = pylibfranka.Robot(box.host, pylibfranka.RealtimeConfig.kIgnore)
 
-        def robot_ms() -> int:
-            return int(box_stats(box).get("message_id", 0))
+        quick, patient = _RobotClock(box, 0.002), _RobotClock(box, 0.1)   # the pauses' clock; the stall's
 
-        with CpuLoad(processes=inputs["load_processes"]):
-            _warm_up(robot, pylibfranka)
-            for attempt in range(1, ATTEMPTS + 1):
-                before = _state(robot)
-                base = box_stats(box)          # earlier attempts' and the warm-up's counts, subtracted below
-                ts: list[float] = []
-                offset = _offset(inputs["amplitude"], inputs["seconds"], inputs["pauses"], ts, robot_ms)
-                result = _call(run_motion, robot, offset, inputs["seconds"])
-                stats = box_stats(box)
-                out["a"] = {**result, "q0": before["q"], "after": _state(robot), "ts": ts, "attempts": attempt,
-                            "stats": {k: (stats.get(k, 0) - base.get(k, 0)) if k in _COUNTS else stats.get(k, 0)
-                                      for k in _STATS}}
-                # only the communication reflex is retried: a loaded grading machine can stall any loop
-                # once; a loop that blocks by itself trips it every time
-                comm = "reflex_communication_constraints_violation"
-                if int(stats.get(comm, 0)) - int(base.get(comm, 0)) == 0:   # the robot's own count, not the text
-                    break
-                if out["a"]["after"]["mode"] != "Idle":
-                    robot.automatic_error_recovery()
+        watching = box_watch(box) == "ok"     # this thread runs the student's loop
+        # the grader's own heap (the runner, earlier answers) is not the student's to collect: what
+        # exists now is frozen out of the collector, so a collection in the loop sees only the
+        # loop's own objects (chapter 1's gc.freeze(), what robocourse.rt.settings.realtime does)
+        gc.collect()
+        gc.freeze()
+        _warm_up(robot, pylibfranka)
+        for attempt in range(1, ATTEMPTS + 1):
+            before = _state(robot)
+            base = box_stats(box)          # earlier attempts' and the warm-up's counts, subtracted below
+            ts: list[float] = []
+            offset = _offset(inputs["amplitude"], inputs["seconds"], inputs["pauses"], ts, quick)
+            result = _call(run_motion, robot, offset, inputs["seconds"])
+            stats = box_stats(box)
+            out["a"] = {**result, "q0": before["q"], "after": _state(robot), "ts": ts, "attempts": attempt,
+                        "stats": {k: (stats.get(k, 0) - base.get(k, 0)) if k in _COUNTS else stats.get(k, 0)
+                                  for k in _STATS}}
+            # retried only where the box could not tell the machine's delays from the loop's own:
+            # a loop that blocks by itself trips it every time
+            comm = "reflex_communication_constraints_violation"
+            if watching or int(stats.get(comm, 0)) - int(base.get(comm, 0)) == 0:   # the robot's own count
+                break
+            if out["a"]["after"]["mode"] != "Idle":
+                _recover(robot)
         if out["a"]["after"]["mode"] != "Idle":   # the loop left the robot stopped: phase B starts clean
-            robot.automatic_error_recovery()
+            _recover(robot)
         base_b = box_stats(box)
         ts_b: list[float] = []
         # the stall: 30 ms, and until the robot has sent 25 states (past its limit of 20)
-        stall = _offset([0.05] * 7, 1.0, [[inputs["stall_at"], inputs["stall_ms"]]], ts_b, robot_ms,
+        stall = _offset([0.05] * 7, 1.0, [[inputs["stall_at"], inputs["stall_ms"]]], ts_b, patient,
                         min_states=25, max_ms=500.0)
         result = _call(run_motion, robot, stall, 1.0)
         stats_b = box_stats(box)
@@ -145,7 +211,8 @@ def franka_loop_probe(inputs, run_motion):
     except NotImplementedError:
         raise
     except Exception as exc:  # noqa: BLE001 - a setup failure is reported, not raised
-        out["setup"] = f"{type(exc).__name__}: {str(exc)[:300]}"
+        out["setup"] = f"{type(exc).__name__}: {str(exc)[:380]}"
     finally:
+        gc.unfreeze()
         box.stop()
     return out

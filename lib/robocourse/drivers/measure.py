@@ -72,13 +72,14 @@ HEADER = (f"{'run':<34} {'p50 us':>8} {'p99 us':>8} {'max us':>9} {'success':>9}
 
 
 def franka_roundtrip(seconds: float = 2.0, *, physics: bool = True, realtime: bool = False,
-                     work=None, label: str | None = None) -> RoundTrip:
+                     work=None, label: str | None = None, priority: int = 80) -> RoundTrip:
     """Run a fresh Franka box and a pylibfranka joint position loop (read the state, call
     ``work()`` if given, command the start position) for ``seconds``; return what the box counted.
 
-    ``realtime``: this loop (the client) tries SCHED_FIFO + locked memory + a frozen gc (what
-    :func:`robocourse.rt.settings.realtime` does; refused for an unprivileged user: the run then
-    measures the default scheduler, and ``realtime_applied`` says so). The box, like a robot's
+    ``realtime``: this loop (the client) tries SCHED_FIFO at ``priority`` (80, as the other
+    benchmarks; never 99, where the kernel's watchdog threads run) + locked memory + a frozen gc
+    (what :func:`robocourse.rt.settings.realtime` does; refused for an unprivileged user: the run
+    then measures the default scheduler, and ``realtime_applied`` says so). The box, like a robot's
     controller, always asks for them (``start_franka_box``'s default). The box allows any number
     of lost cycles here (no reflex) so the whole run is measured; ``max_lost_in_row`` tells
     whether the robot's limit (20) would have stopped it.
@@ -89,12 +90,16 @@ def franka_roundtrip(seconds: float = 2.0, *, physics: bool = True, realtime: bo
 
     if not 0 < seconds <= 600:
         raise ValueError(f"seconds={seconds!r} must be in (0, 600]")
+    if isinstance(priority, bool) or not isinstance(priority, int) or not 1 <= priority <= 98:
+        raise ValueError(f"priority={priority!r} must be a SCHED_FIFO priority in 1..98 (99 belongs to the kernel's "
+                         "watchdog threads); the benchmarks use 80")
     box = start_franka_box(max_lost=10 ** 9, physics=physics)
     applied = ""
     try:
         robot = pylibfranka.Robot(box.host, pylibfranka.RealtimeConfig.kIgnore)
         q0 = list(robot.read_once().q)
-        ctx = settings.realtime(quiet=True, heap_size=16 * 1024 * 1024) if realtime else contextlib.nullcontext()
+        ctx = (settings.realtime(priority=priority, quiet=True, heap_size=16 * 1024 * 1024) if realtime
+               else contextlib.nullcontext())
         with ctx as reports:
             if realtime:
                 applied = ", ".join(f"{r.name} {'ok' if r.ok else 'refused'}" for r in reports)

@@ -8,6 +8,8 @@ box crash looks like a robot that went silent.
   fixed ports on a free loopback address, :mod:`robocourse.drivers.loopback`; no race either
   way) and prints one line ``READY [host=<address>] <name>=<port> ...`` on stdout;
   :meth:`BoxProcess.start` waits for it.
+- The child starts under SCHED_OTHER whatever its parent runs at (a real-time parent's policy
+  is not inherited); a box asked for real-time settings (``--rt``) takes its own.
 - No leftovers: the child asks the kernel for SIGKILL when its parent dies
   (``prctl(PR_SET_PDEATHSIG)``), runs in its own session (a Ctrl-C in the notebook does not
   reach it; :meth:`stop` does), and also exits when it sees it was re-parented.
@@ -35,6 +37,13 @@ class BoxStartError(RuntimeError):
 def _die_with_parent() -> None:  # runs in the child between fork and exec
     try:
         ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
+    # a child inherits its parent's policy: started from a SCHED_FIFO thread (a benchmark's loop)
+    # the box's Python start-up would run as a real-time hog. It starts ordinary; ``--rt`` asks
+    # for its own priority once it is up.
+    try:
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
     except (OSError, AttributeError):
         pass
 

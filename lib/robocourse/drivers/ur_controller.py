@@ -309,8 +309,11 @@ class URController:
                 self.script.blocking = "move"
             return True
         if cmd in (15, 16):                                         # speedStop / servoStop
+            # ur_rtde's script kills its speed / servo thread and answers at once ("servo_stop done"):
+            # the arm decelerates after the call returned (ours: at the deceleration the client sent).
+            # Blocking until rest here made a servoStop outlast a 100 ms RTDE watchdog, which then
+            # stopped the program under the client's wait: "RTDE control script is not running!"
             m.stop(float(self._in_doubles(0, 1)[0]))
-            self.script.blocking = "stop"
             return True
         if cmd in (33, 34):                                         # stopL / stopJ
             self._end_async()
