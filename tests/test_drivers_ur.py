@@ -148,9 +148,15 @@ def test_a_125_hz_recipe_gets_every_fourth_tick(box):
         reply = raw.ask(rtde.SETUP_OUTPUTS, struct.pack(">d", 125.0) + b"timestamp,")
         assert reply == b"\x01DOUBLE"
         assert raw.ask(rtde.START) == b"\x01"
+        s0 = read_stats(box.host)
         stamps = [struct.unpack(">Bd", raw.read(rtde.DATA_PACKAGE)[1])[1] for _ in range(20)]
+        s1 = read_stats(box.host)
         steps = np.round(np.diff(stamps) / 0.002)
-        assert np.all(steps % 4 == 0) and np.all(steps >= 4), steps
+        late = sum(s1.get(k, 0) - s0.get(k, 0) for k in ("box_late_ticks", "box_overruns"))
+        if late == 0:   # every tick on time: exactly every fourth tick's timestamp
+            assert np.all(steps == 4), steps
+        else:           # a starved box stamps a late tick with the grid point it ran at (a 5 then a 3)
+            assert np.median(steps) == 4 and np.all(steps >= 1), (steps, late)
     finally:
         raw.close()
 

@@ -94,3 +94,32 @@ def test_cpu_load_started_from_a_fifo_process_runs_sched_other(tmp_path):
     )
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=30)
     assert out.stdout.split() == ["True", "True"], out.stderr
+
+
+def test_busy_children_end_when_their_parent_is_killed():
+    """A parent killed by a signal never runs CpuLoad.__exit__: its busy children must not spin on as orphans."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import psutil
+
+    code = ("import sys, time\nsys.path.insert(0, sys.argv[1])\nfrom robocourse.rt.disturb import CpuLoad\n"
+            "with CpuLoad(processes=2) as load:\n    print(*load.pids, flush=True)\n    time.sleep(60)\n")
+    lib = str(__import__("pathlib").Path(__file__).resolve().parents[1] / "lib")
+    parent = subprocess.Popen([sys.executable, "-c", code, lib], stdout=subprocess.PIPE, text=True)
+    try:
+        pids = [int(p) for p in parent.stdout.readline().split()]
+        assert len(pids) == 2
+        parent.send_signal(signal.SIGKILL)
+        parent.wait(10)
+        deadline = time.monotonic() + 20
+        alive = pids
+        while alive and time.monotonic() < deadline:
+            alive = [p for p in pids if psutil.pid_exists(p) and psutil.Process(p).status() != psutil.STATUS_ZOMBIE]
+            time.sleep(0.1)
+        assert not alive, f"busy children {alive} outlived their killed parent"
+    finally:
+        if parent.poll() is None:
+            parent.kill()

@@ -21,12 +21,18 @@ import time
 # A child inherits its parent's scheduling policy: started from a SCHED_FIFO process (rttest with
 # -p, a benchmark's RT settings) a busy loop would be a real-time hog that starves every CPU it may
 # use. It returns to SCHED_OTHER first, so it is always the ordinary load the docstring promises.
+# A parent killed by a signal runs no __exit__: the loop looks up its parent every few million turns
+# (a fraction of a second) and ends once it has been re-parented, so no orphan spins on.
 _BUSY = ("import os, sys\n"
+         "parent = int(sys.argv[1])\n"
          "if hasattr(os, 'sched_setscheduler'):\n"
          "    try:\n        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))\n"
          "    except OSError:\n        pass\n"
-         "if hasattr(os, 'sched_setaffinity'):\n    os.sched_setaffinity(0, {int(a) for a in sys.argv[1:]})\n"
-         "while True:\n    pass\n")
+         "if hasattr(os, 'sched_setaffinity'):\n    os.sched_setaffinity(0, {int(a) for a in sys.argv[2:]})\n"
+         "n = 0\n"
+         "while True:\n    n += 1\n"
+         "    if n == 3_000_000:\n        n = 0\n"
+         "        if os.getppid() != parent:\n            break\n")
 
 
 class CpuLoad:
@@ -51,7 +57,7 @@ class CpuLoad:
 
     def __enter__(self):
         for _ in range(self.processes):
-            self._procs.append(subprocess.Popen([sys.executable, "-c", _BUSY, str(self.cpu)],
+            self._procs.append(subprocess.Popen([sys.executable, "-c", _BUSY, str(os.getpid()), str(self.cpu)],
                                                 stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL))
         time.sleep(0.05)  # let them start spinning before the measurement does
         return self
