@@ -30,7 +30,10 @@ def test_name_namespace_remapping_and_parameters_reach_the_node(tmp_path):
     node = system.node("/car/lights")
     assert node.get_fully_qualified_name() == "/car/lights"
     assert node.get_parameter("led_count").value == 3
-    assert [s.srv_name for s in node.services] == ["/car/set_lights"]
+    # the remapped service, beside the node's own ~/ services every rclpy node has (parameters, type description)
+    names = [s.srv_name for s in node.services]
+    assert [n for n in names if not n.startswith("/car/lights/")] == ["/car/set_lights"]
+    assert "/car/lights/get_parameters" in names and "/set_led" not in names
 
 
 def test_parameters_apply_in_order_and_a_substitution_is_read_as_yaml(tmp_path):
