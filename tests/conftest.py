@@ -290,3 +290,21 @@ def pytest_sessionfinish(session, exitstatus):
     for unit, s in known.values():
         per_unit[unit] += s
     config.cache.set(_CACHE_UNITS, {unit: round(s, 1) for unit, s in sorted(per_unit.items())})
+
+
+@pytest.fixture
+def progress_updates(monkeypatch):
+    """What ``robocourse.notebook.progress`` draws in a kernel: each object it updates its line with, in order."""
+    import IPython.display
+
+    from robocourse.notebook import progress_line
+
+    updates = []
+
+    class Handle:
+        def update(self, obj, raw=False):
+            updates.append(obj)
+
+    monkeypatch.setattr(progress_line, "_in_kernel", lambda: True)
+    monkeypatch.setattr(IPython.display, "display", lambda obj, raw=False, display_id=False: Handle())
+    return updates

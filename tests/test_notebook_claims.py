@@ -168,19 +168,8 @@ def test_log_level_hides_quieter_lines_but_keeps_them(capsys):
     ctx.shutdown()
 
 
-def test_progress_line_ends_as_a_summary_not_a_frozen_bar(monkeypatch):
-    from robocourse.notebook import progress_line
-
-    updates = []
-
-    class Handle:
-        def update(self, obj, raw=False):
-            updates.append(obj)
-
-    import IPython.display
-
-    monkeypatch.setattr(progress_line, "_in_kernel", lambda: True)
-    monkeypatch.setattr(IPython.display, "display", lambda obj, raw=False, display_id=False: Handle())
+def test_progress_line_ends_as_a_summary_not_a_frozen_bar(progress_updates):
+    updates = progress_updates
     with progress(3, "runs") as bar:
         for _ in range(3):
             bar.update()

@@ -177,22 +177,11 @@ def test_projected_gravity_and_the_quaternion_order_mistake():
         projected_gravity([0, 0, 0, 0])
 
 
-def test_ars_progress_is_a_line_that_ends_as_its_summary_never_a_frozen_bar(monkeypatch):
+def test_ars_progress_is_a_line_that_ends_as_its_summary_never_a_frozen_bar(monkeypatch, progress_updates):
     # issue 25: tqdm's notebook widget is saved as "0/15" forever; ARS draws robocourse.notebook.progress
     import sys
 
-    import IPython.display
-
-    from robocourse.notebook import progress_line
-
-    updates = []
-
-    class Handle:
-        def update(self, obj, raw=False):
-            updates.append(obj)
-
-    monkeypatch.setattr(progress_line, "_in_kernel", lambda: True)
-    monkeypatch.setattr(IPython.display, "display", lambda obj, raw=False, display_id=False: Handle())
+    updates = progress_updates
     monkeypatch.delitem(sys.modules, "tqdm", raising=False)
     monkeypatch.delitem(sys.modules, "tqdm.auto", raising=False)
     r = train_cartpole(ARSConfig(n_directions=4, top=2, step_size=0.1, noise=0.1, seed=0, max_iterations=30))
