@@ -167,11 +167,9 @@ def test_a_125_hz_recipe_gets_every_fourth_tick(box):
         assert raw.ask(rtde.START) == b"\x01"
         stamps = [struct.unpack(">Bd", raw.read(rtde.DATA_PACKAGE)[1])[1] for _ in range(20)]
         steps = np.round(np.diff(stamps) / 0.002)
-        late = sum(s1.get(k, 0) - s0.get(k, 0) for k in ("box_late_ticks", "box_overruns"))
-        if late == 0:   # every tick on time: exactly every fourth tick's timestamp
-            assert np.all(steps == 4), steps
-        else:           # a starved box stamps a late tick with the grid point it ran at (a 5 then a 3)
-            assert np.median(steps) == 4 and np.all(steps >= 1), (steps, late)
+        # every fourth tick: the timestamp is the box's clock on its 2 ms grid, so a tick that ran a little late
+        # (the box is a process on a shared machine) is stamped one grid point later: a 5 then a 3
+        assert np.median(steps) == 4 and np.all(steps >= 1) and abs(stamps[-1] - stamps[0] - 0.008 * 19) <= 0.004 * 3, steps
     finally:
         raw.close()
 
