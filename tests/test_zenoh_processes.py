@@ -186,11 +186,24 @@ def test_plain_zenoh_client_gets_its_sequence_number_and_gid_back(ctx, endpoint,
     assert replies[0]["key"].startswith("0/add_two_ints/example_interfaces::srv::dds_::")
 
 
+_PENDING: dict[int, str] = {}
+
+
 def _poll_line(p, into):
+    """Append every complete JSON line the process has written so far. Reads the pipe's fd directly: a
+    buffered readline after select() leaves a second line that arrived with the first in Python's buffer,
+    where select() never sees it (the third reply was then 'never' read)."""
+    import os
     import select
 
-    if select.select([p.stdout], [], [], 0)[0]:
-        into.append(json.loads(p.stdout.readline()))
+    fd = p.stdout.fileno()
+    while select.select([fd], [], [], 0)[0]:
+        chunk = os.read(fd, 65536).decode()
+        if not chunk:
+            break
+        _PENDING[fd] = _PENDING.get(fd, "") + chunk
+    *lines, _PENDING[fd] = _PENDING.get(fd, "").split("\n")
+    into.extend(json.loads(line) for line in lines if line.strip())
     return True
 
 
