@@ -145,20 +145,22 @@ def test_claims_written_with_keys_cells_and_sections_then_listed_quiet_beside_lo
     times = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(times)
     quiet = _executed("# Chapter\n## 1. Waiting", claim("p50", {"a": [1, 2, 3], "b": [7, 8, 9]}),
-                      "## 2. Again", claim("p50", {"a": [1, 2, 3], "b": [2, 3, 4]}), claim("max", 5.0))
+                      "## 2. Again", claim("p50", {"a": [1, 2, 3], "b": [2, 3, 4]}), claim("max", 5.0),
+                      claim("p50", {"c": [1, 2, 3], "b": [2, 3, 4]}))
     loaded = _executed("# Chapter\n## 1. Waiting", claim("p50", {"a": [1, 2, 3], "b": [2, 8, 9]}),
                        "## 2. Again", claim("p50", {"a": [1, 2, 3], "b": [2, 3, 4]}))
     out = write_claims(tmp_path, "01_x", "quiet", quiet, loadavg_before=0.5, loadavg_after=0.7, seconds=3.0)
     rows = json.loads(out.read_text())["claims"]
     assert [(r["key"], r["cell"], r["section"], r["verdict"]) for r in rows] == [
-        ("p50", 1, "1. Waiting", "lower"), ("p50 #2", 3, "2. Again", "cannot tell"), ("max", 4, "2. Again", "measured")]
+        ("p50 [a / b]", 1, "1. Waiting", "lower"), ("p50 [a / b] #2", 3, "2. Again", "cannot tell"),
+        ("max", 4, "2. Again", "measured"), ("p50 [c / b]", 5, "2. Again", "cannot tell")]
     write_claims(tmp_path, "01_x", "loaded", loaded, loadavg_after=2.5)
     (tmp_path / "old.json").write_text("[]")          # a file of the older list format is skipped
     text = times.write_list(tmp_path).read_text()
-    assert "- quiet run: 3.0 s, load average 0.5 before, 0.7 after, 3 claims" in text
+    assert "- quiet run: 3.0 s, load average 0.5 before, 0.7 after, 4 claims" in text
     assert "- loaded run: load average 2.5 after, 2 claims" in text
-    assert "### `p50` (cell 1, 1. Waiting): lower / cannot tell  **(verdict differs)**" in text
-    assert "### `p50 #2` (cell 3, 2. Again): cannot tell / cannot tell\n" in text
+    assert "### `p50 [a / b]` (cell 1, 1. Waiting): lower / cannot tell  **(verdict differs)**" in text
+    assert "### `p50 [a / b] #2` (cell 3, 2. Again): cannot tell / cannot tell\n" in text
     assert f"- quiet: {claim('max', 5.0).text}\n- loaded: (not rendered in this run)" in text
 
 

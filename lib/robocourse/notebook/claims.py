@@ -304,14 +304,17 @@ def recorded_claims(notebook) -> list[dict]:
 
 
 def claim_keys(records: list[dict]) -> list[str]:
-    """A key per record that names the same claim in another run of the notebook: its ``what``,
-    with ``#2``, ``#3``... on a second and later claim of the same name (the sentence itself
-    changes with the numbers; the name and its order do not)."""
+    """A key per record that names the same claim in another run of the notebook: its ``what`` and
+    its cases (``wake-up p50 [hybrid / sleep]``), with ``#2``, ``#3``... on a later claim of the
+    same key (the sentence itself changes with the numbers; the name, the cases and their order
+    do not)."""
     seen: dict[str, int] = {}
     keys = []
     for r in records:
-        seen[r["what"]] = seen.get(r["what"], 0) + 1
-        keys.append(r["what"] if seen[r["what"]] == 1 else f"{r['what']} #{seen[r['what']]}")
+        cases = [c for c in r.get("values", {}) if c]
+        base = r["what"] + (f" [{' / '.join(cases)}]" if cases else "")
+        seen[base] = seen.get(base, 0) + 1
+        keys.append(base if seen[base] == 1 else f"{base} #{seen[base]}")
     return keys
 
 
