@@ -65,6 +65,10 @@ def _phase_a(inputs, out) -> dict:
         own = (f"; your loop's own share of the lost cycles reached {stats.get('max_own_lost_in_row')} in a row, "
                f"apart from {stats.get('lost_machine', 0)} cycles the machine held it off the CPU"
                if stats.get("watching") else "")
+        if stats.get("reflexes_machine"):
+            raise CheckFailed(f"the machine, not your code: in each of {a['attempts']} runs this grading machine held "
+                              f"your loop off the CPU past the robot's limit{why}. Grade it again on a quieter "
+                              "machine (nothing in your code was found blocking)")
         raise CheckFailed(f"run_motion raised {a['raised']}{tries}: {a['text']}{why}{own}. Through the pauses "
                           f"({', '.join(f'{ms} ms at t = {t} s' for t, ms in inputs['pauses'])}) the loop must keep "
                           f"the robot moving: nothing in the loop may block for {fw.MAX_LOST_IN_ROW} cycles, and the "
