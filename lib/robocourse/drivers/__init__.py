@@ -11,23 +11,18 @@ Importing this package declares the hardware plugins ``robocourse/FrankaStyleSys
 
 from __future__ import annotations
 
-import os as _os
+from robocourse.control import pluginlib as _pluginlib
 
 from . import franka_wire as _fw
 from .arm import ARM_JOINTS
 from .description import CONTROLLERS_YAML, FR3_CONTROLLERS_YAML, arm_urdf, fr3_urdf
 from .fr3_arm import FR3_JOINTS
-from .process import BOX_PROCESS_ENV, BoxProcess, BoxStartError
+from .process import BoxProcess, BoxStartError
 
-if not _os.environ.get(BOX_PROCESS_ENV):
-    # a box process (the robot's controller) needs none of ros2_control: importing it cost the box's
-    # start-up about 0.7 s of the 1.5 s its imports took on a loaded machine
-    from robocourse.control import pluginlib as _pluginlib
-
-    _pluginlib.register("robocourse/FrankaStyleSystem", "robocourse.drivers.franka_system:FrankaStyleSystem",
-                        _pluginlib.HARDWARE_BASE)
-    _pluginlib.register("robocourse/URStyleSystem", "robocourse.drivers.ur_system:URStyleSystem",
-                        _pluginlib.HARDWARE_BASE)
+_pluginlib.register("robocourse/FrankaStyleSystem", "robocourse.drivers.franka_system:FrankaStyleSystem",
+                    _pluginlib.HARDWARE_BASE)
+_pluginlib.register("robocourse/URStyleSystem", "robocourse.drivers.ur_system:URStyleSystem",
+                    _pluginlib.HARDWARE_BASE)
 
 
 def start_franka_box(max_lost: int = _fw.MAX_LOST_IN_ROW, initial_positions=None, realtime: bool = True,

@@ -28,9 +28,6 @@ import sys
 import time
 
 _PR_SET_PDEATHSIG = 1
-#: set in a box process's environment: ``robocourse.drivers`` then skips what only a client needs (ros2_control's
-#: plugin registry), so the box is up sooner
-BOX_PROCESS_ENV = "ROBOCOURSE_BOX_PROCESS"
 
 
 class BoxStartError(RuntimeError):
@@ -80,7 +77,6 @@ class BoxProcess:
         lib = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
         env["PYTHONPATH"] = lib + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
         env.setdefault("MUJOCO_GL", "disable")     # a box never renders: skip loading GLFW (~0.2 s of start-up)
-        env[BOX_PROCESS_ENV] = "1"
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "robocourse.drivers.box", self.kind, *self.args],
             stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
