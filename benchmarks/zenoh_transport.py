@@ -640,7 +640,7 @@ def budget(n):
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(node)
     zt = transport.ZenohTransport.__new__(transport.ZenohTransport)   # no session: hooks only
-    zt.dropped_no_attachment = zt.dropped_undecodable = 0
+    zt.dropped_no_attachment = zt.dropped_undecodable = zt.receive_errors = 0
     on_sample = zt._on_sample(sub)
     loc = transport._Local("budget", None, "budget", _Put())
     loc.t = String
@@ -669,7 +669,85 @@ def budget(n):
         print(f"{size:8} {one:14.2f} {hundred:15.2f}")
     ctx.try_shutdown()
     spinner.join(5)
+    _pieces(n, _Sample)
     return 0
+
+
+def _pieces(n, sample_type):
+    """Each piece of the echo's work alone, warm, in one thread (thread CPU per call, best of
+    7 x ``n`` calls): what the Python layers cost at best, beside what they cost in a flood."""
+    from robocourse.bus import Context, HistoryPolicy, QoSProfile, SingleThreadedExecutor
+    from robocourse.bus.zenoh import transport, wire
+    from robocourse.msgs.std_msgs import String
+
+    class _Put:
+        def put(self, data, attachment=None):
+            pass
+
+    def best(f, arg):
+        t = []
+        for _ in range(7):
+            t0 = time.thread_time()
+            for _ in range(n):
+                f(arg)
+            t.append(time.thread_time() - t0)
+        return min(t) / n * 1e6
+
+    def executor_per_callback():
+        """``spin()`` draining ``n`` queued messages into a callback that does nothing"""
+        ctx = Context()
+        node = ctx.create_node("drain")
+        left = [n]
+
+        def cb(_msg):
+            left[0] -= 1
+            if not left[0]:
+                ex.shutdown()
+        sub = node.create_subscription(String, "/x", cb, QoSProfile(depth=7,
+                                       history=HistoryPolicy.KEEP_ALL))
+        ex = SingleThreadedExecutor(context=ctx)
+        ex.add_node(node)
+        m = String()
+        for _ in range(n):
+            sub._deliver(m)
+        t0 = time.thread_time()
+        ex.spin()
+        dt = time.thread_time() - t0
+        ctx.try_shutdown()
+        return dt / n * 1e6
+
+    ctx = Context()
+    qos = QoSProfile(depth=7, history=HistoryPolicy.KEEP_ALL)
+    node = ctx.create_node("echo")
+    pub = node.create_publisher(String, "/pong", qos)
+    sub = node.create_subscription(String, "/ping", pub.publish, qos)
+    zt = transport.ZenohTransport.__new__(transport.ZenohTransport)   # no session: hooks only
+    zt.dropped_no_attachment = zt.dropped_undecodable = zt.receive_errors = 0
+    on_sample = zt._on_sample(sub)
+    loc = transport._Local("pieces", None, "pieces", _Put())
+    loc.t = String
+    pub._remote = zt._sender(loc)
+    dec, enc = wire.decoder(String), wire.encoder(String, buffer=True)
+    ex_cb = min(executor_per_callback() for _ in range(3))
+    print(f"\nthe echo's work piece by piece, warm, one thread (thread CPU us per call, best of "
+          f"7 x {n})")
+    labels = ("sample: attachment check + payload + decode + queue", "  of which CDR decode",
+              "executor: take + run a callback (no-op callback)",
+              "publish -> encode + attachment + put call", "  of which CDR encode")
+    cols = {}
+    for size in SIZES:
+        msg = _payload(size)
+        cdr = wire.to_cdr(msg)
+        sample = sample_type(wire.encode_attachment(1, b"g" * 16), cdr)
+        cols[size] = (best(lambda x: (on_sample(x), sub._queue.clear()), sample),
+                      best(dec, cdr), ex_cb, best(pub.publish, msg), best(enc, msg))
+    print(f"  {'piece':52} " + " ".join(f"{size:>8}" for size in SIZES))
+    for i, label in enumerate(labels):
+        print(f"  {label:52} " + " ".join(f"{cols[size][i]:8.2f}" for size in SIZES))
+    total = {size: cols[size][0] + cols[size][2] + cols[size][3] for size in SIZES}
+    print(f"  {'sum (sample + executor + publish)':52} " + " ".join(f"{total[size]:8.2f}"
+                                                                   for size in SIZES))
+    ctx.try_shutdown()
 
 
 # ------------------------------------------------------------------------------ throughput only
@@ -703,12 +781,17 @@ def throughput(repeats, n):
                 item = wire.to_cdr(msg) if path == "raw zenoh" else msg
                 sides[path].flood(item, 500)                   # warm-up
                 c0, e0 = time.process_time(), _cpu_s(echo_of[path])
+                t0 = _thread_cpu(echo_of[path])
                 rate = sides[path].flood(item, n)
                 c1, e1 = time.process_time(), _cpu_s(echo_of[path])
-                d = rows.setdefault((size, path), {"tput": [], "here": [], "echo": []})
+                t1 = _thread_cpu(echo_of[path])
+                d = rows.setdefault((size, path), {"tput": [], "here": [], "echo": [],
+                                                   **{g: [] for g in THREAD_GROUPS}})
                 d["tput"].append(rate)
                 d["here"].append((c1 - c0) / n * 1e6)
                 d["echo"].append((e1 - e0) / n * 1e6)
+                for g in THREAD_GROUPS:
+                    d[g].append((t1[g] - t0[g]) / n * 1e6)
         print(f"  repeat {rep + 1}/{repeats} done", flush=True)
     for p in procs:
         p.stdin.close()
@@ -730,6 +813,13 @@ def throughput(repeats, n):
                                             rows[(size, "raw zenoh")]["tput"])])
         print(f"  {size}: robocourse/zenoh throughput {fmt(ratio, 'x', 2)} raw zenoh (median of "
               f"per-repeat ratios; goal >= {GOAL_TPUT}x: {'met' if ratio[0] >= GOAL_TPUT else 'NOT met'})")
+    print("\nwhere the echo process's CPU goes during the flood, us per message by thread "
+          "(/proc, 10 ms ticks); median [min..max] over repeats")
+    print(f"{'payload':8} {'path':18} " + " ".join(f"{g:>24}" for g in THREAD_GROUPS))
+    for size in SIZES:
+        for path in sides:
+            d = rows[(size, path)]
+            print(f"{size:8} {path:18} " + " ".join(f"{fmt(med(d[g])):>24}" for g in THREAD_GROUPS))
     return 0
 
 
@@ -755,6 +845,36 @@ def _cpu_s(pid):
     with open(f"/proc/{pid}/stat") as fh:
         fields = fh.read().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+#: the echo process's threads, grouped (``_thread_cpu``)
+THREAD_GROUPS = ("main thread", "other Python threads", "zenoh's own threads")
+
+
+def _thread_cpu(pid):
+    """CPU seconds so far of process ``pid``'s threads, by :data:`THREAD_GROUPS`: the main
+    thread (robocourse: the executor, so callbacks, publish, encode and ``put``; raw zenoh: idle),
+    the other threads named like the process (robocourse: each subscription's receive thread,
+    attachment check and decode; raw zenoh: zenoh-python's callback thread, callback and
+    ``put``), and zenoh's runtime threads (``rx-*``, ``tx-*``, ``net-*``...: sockets, routing,
+    batching)."""
+    tick = os.sysconf("SC_CLK_TCK")
+    with open(f"/proc/{pid}/comm") as fh:
+        comm = fh.read().strip()
+    out = dict.fromkeys(THREAD_GROUPS, 0.0)
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        try:
+            with open(f"/proc/{pid}/task/{tid}/stat") as fh:
+                text = fh.read()
+        except OSError:             # the thread ended
+            continue
+        name = text[text.index("(") + 1:text.rindex(")")]
+        fields = text.rsplit(")", 1)[1].split()
+        cpu = (int(fields[11]) + int(fields[12])) / tick
+        group = THREAD_GROUPS[0] if int(tid) == pid else \
+            THREAD_GROUPS[1] if name == comm else THREAD_GROUPS[2]
+        out[group] += cpu
+    return out
 
 
 def med(xs):

@@ -28,13 +28,7 @@ BANK_DIR = ROOT / "tests" / "banks"
 REPEATS = int(os.environ.get("ROBOCOURSE_BANK_REPEATS", "1"))
 
 #: Exercises whose bank another helper is writing now (issue 26); remove a name when its bank lands.
-PENDING = {
-    "ch05.franka_loop": "helper ch5 (issue 26): the box now judges the loop apart from the machine (franka_box "
-                        "'watch'); the reference scored full in 19 of 20 sandboxed runs under CpuLoad(2) on the "
-                        "shared 2-core machine (one tripped the silence rule with the client blocked in a UDP "
-                        "receive and a state unanswered), and the wrong answers' 20-run counts are not in yet: "
-                        "tests/banks_pending/ch05_franka.py until both are",
-}
+PENDING: dict[str, str] = {}
 
 
 def load_bank(path) -> list[Exercise]:

@@ -19,21 +19,20 @@ loads. A chapter in ``KNOWN_LOAD_FAILURES`` runs quiet, so it is ``serial`` itse
 is. They run quiet here (so they are still executed and their claims checked) until their owner
 fixes them and deletes the entry; the list may only shrink.
 
-``ROBOCOURSE_CLAIMS_OUT=<folder>`` writes each chapter's rendered claims there as JSON (the
-closing note of issue 25 lists them quiet and loaded; ``benchmarks/notebook_times.py --claims``
-writes the quiet ones).
+``ROBOCOURSE_CLAIMS_OUT=<folder>`` writes each chapter's rendered claims there as JSON
+(``robocourse.notebook.claims.write_claims``); ``benchmarks/notebook_times.py --list <folder>``
+lists them per chapter, quiet beside loaded, as issue 25's closing note does.
 """
 
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 from pathlib import Path
 
 import pytest
 
-from robocourse.notebook.claims import Claim, recorded_claims
+from robocourse.notebook.claims import Claim, recorded_claims, write_claims
 from robocourse.notebook.run import execute
 from robocourse.rt.disturb import CpuLoad
 
@@ -45,14 +44,6 @@ CELL_TIMEOUT_S = 240
 KNOWN_LOAD_FAILURES: dict[str, str] = {}
 
 
-def claims_out(notebook: str, condition: str, records: list[dict]) -> None:
-    folder = os.environ.get("ROBOCOURSE_CLAIMS_OUT")
-    if not folder:
-        return
-    Path(folder).mkdir(parents=True, exist_ok=True)
-    name = Path(notebook).stem + f".{condition}.json"
-    rows = [{"what": r["what"], "verdict": r["verdict"], "text": r["text"]} for r in records]
-    (Path(folder) / name).write_text(json.dumps(rows, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
 
 
 def test_known_load_failures_are_chapters():
@@ -68,9 +59,11 @@ def test_chapter_completes_under_load_and_its_claims_match_its_data(notebook):
     loaded = notebook not in KNOWN_LOAD_FAILURES
     load = CpuLoad(processes=2) if loaded else contextlib.nullcontext()
     with load:
-        nb, _seconds = execute(ROOT / notebook, env={"ROBOCOURSE_TEST": "1"}, timeout=CELL_TIMEOUT_S)
+        nb, seconds = execute(ROOT / notebook, env={"ROBOCOURSE_TEST": "1"}, timeout=CELL_TIMEOUT_S)
     records = recorded_claims(nb)
-    claims_out(notebook, "loaded" if loaded else "quiet", records)
+    if os.environ.get("ROBOCOURSE_CLAIMS_OUT"):
+        write_claims(os.environ["ROBOCOURSE_CLAIMS_OUT"], Path(notebook).stem, "loaded" if loaded else "quiet", nb,
+                     seconds=round(seconds, 1), loadavg_after=round(os.getloadavg()[0], 2))
     wrong = []
     for rec in records:
         again = Claim.from_record(rec)

@@ -255,6 +255,89 @@ def test_a_watched_client_that_sleeps_30_ms_trips_the_reflex_and_the_box_says_ho
         box.stop()
 
 
+class _SeenThread:
+    """What the box's ``watch`` reads of a client thread, set by the test: its recorded run-queue
+    wait, what it cannot see yet (a wait going on), whether it is runnable."""
+
+    def __init__(self):
+        self.recorded_ms = self.unknown_ms = self.ran_ms = self.last_ms = 0.0
+        self.runnable = False
+
+    def mark(self): pass
+
+    def restart(self): pass
+
+    def waited_ms(self):
+        self.last_ms = self.recorded_ms
+        return self.last_ms
+
+    def where(self):
+        return ", now in state R"
+
+    def close(self): pass
+
+
+def _watched_box(monkeypatch, cap_ms=None):
+    """A box in this process (no physics, no client), a motion running, its client thread faked."""
+    from robocourse.drivers import franka_box
+
+    if cap_ms is not None:
+        monkeypatch.setattr(franka_box, "MACHINE_CAP_MS", cap_ms)
+    b = franka_box.FrankaBox(physics=False)
+    conn = franka_box._Conn(sock=None, peer=("127.0.0.1", 0))
+    q = b.arm.q.copy()
+    b.motion = franka_box._Motion(conn, 1, fw.CTRL_JOINT_IMPEDANCE, fw.GEN_JOINT_POSITION, franka_box._Track(q, 0.0),
+                                  franka_box._Track(np.zeros(7), 0.0), franka_box._Track(np.zeros(7), 0.0))
+    b._watch = seen = _SeenThread()
+    b.tick()                                   # the first state of the motion leaves (its modes switched) ...
+    b.tick()                                   # ... unanswered, as libfranka never answers it: not lost
+    assert b.counters["mode_switch_states"] == 1 and b.lost_in_row == 0
+    return b, seen
+
+
+def _close(b):
+    for s in (b.listener, b.udp, b.monitor):
+        s.close()
+
+
+def test_a_runnable_client_is_not_blamed_for_a_wait_the_kernel_has_not_recorded_yet(monkeypatch):
+    """Issue 26: the reflex that failed a correct loop under load came while its thread was
+    runnable, waiting for a CPU (a wait the kernel adds to schedstat only when it ends). The box
+    then decides only what holds even if every unseen millisecond was a wait."""
+    b, seen = _watched_box(monkeypatch)
+    try:
+        seen.runnable, seen.unknown_ms = True, 40.0        # woken, not run yet: 40 ms it cannot see
+        for _ in range(30):
+            b.tick()
+        assert b.motion is not None and b.counters["reflexes"] == 0
+        assert b.counters["verdicts_deferred"] >= 10 and b.lost_in_row == 30
+        seen.runnable, seen.unknown_ms, seen.recorded_ms = False, 0.0, 29.0   # it ran: 29 ms were waits
+        b.tick()                                            # 31 lost, 2 of them its own: the motion goes on
+        assert b.counters["reflexes"] == 0 and b.max_own_lost_in_row < 20
+    finally:
+        _close(b)
+
+
+@pytest.mark.parametrize("runnable, unknown_ms, cap_ms, lost, machine", [
+    (False, 0.0, None, 20, 0),      # asleep (its own sleep): the robot's 20, at once
+    (True, 3.0, None, 23, 0),       # runnable, but 3 unseen ms cannot excuse 23 lost: its own
+    (True, 1000.0, 0, 20, 1),       # held off the CPU past the box's cap: a reflex, the machine's
+], ids=["asleep", "runnable-over-the-limit-anyway", "past-the-cap"])
+def test_a_watched_client_trips_when_it_is_over_the_limit_whatever_it_could_not_see(monkeypatch, runnable, unknown_ms,
+                                                                                   cap_ms, lost, machine):
+    b, seen = _watched_box(monkeypatch, cap_ms)
+    try:
+        seen.runnable, seen.unknown_ms = runnable, unknown_ms
+        for _ in range(lost - 1):
+            b.tick()
+        assert b.counters["reflexes"] == 0
+        b.tick()
+        assert b.counters["reflexes"] == 1 and b.counters["reflexes_machine"] == machine
+        assert f"{lost} lost in a row" in b.last_reflex
+    finally:
+        _close(b)
+
+
 def test_watch_of_a_thread_that_does_not_exist_keeps_the_robot_s_plain_rule(box):
     assert box_watch(box, tid=2 ** 22 + 12345).startswith("unavailable: /proc/")
     assert box_stats(box)["watching"] is False

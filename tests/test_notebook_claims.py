@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
+from pathlib import Path
 
 import pytest
 
@@ -15,7 +17,10 @@ from robocourse.notebook.claims import (
     chance_apart,
     fewest_rounds,
     recorded_claims,
+    write_claims,
 )
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_chance_that_two_sets_come_apart_by_luck():
@@ -120,6 +125,43 @@ def test_say_shows_claims_and_sentences_as_one_list(monkeypatch):
                                                         "metadata": meta}]}]}
     recs = recorded_claims(nb)
     assert [r["text"] for r in recs] == [a.text, b.text] and all(r["text"] in r["_shown"] for r in recs)
+
+
+def _executed(*cells):
+    """A notebook as nbclient leaves it: markdown cells and code cells whose outputs are claims."""
+    nb = {"cells": []}
+    for cell in cells:
+        if isinstance(cell, str):
+            nb["cells"].append({"cell_type": "markdown", "source": cell})
+        else:
+            data, meta = cell._repr_mimebundle_()
+            nb["cells"].append({"cell_type": "code", "source": "", "outputs": [
+                {"output_type": "display_data", "data": data, "metadata": meta}]})
+    return nb
+
+
+def test_claims_written_with_keys_cells_and_sections_then_listed_quiet_beside_loaded(tmp_path):
+    spec = importlib.util.spec_from_file_location("notebook_times", ROOT / "benchmarks/notebook_times.py")
+    times = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(times)
+    quiet = _executed("# Chapter\n## 1. Waiting", claim("p50", {"a": [1, 2, 3], "b": [7, 8, 9]}),
+                      "## 2. Again", claim("p50", {"a": [1, 2, 3], "b": [2, 3, 4]}), claim("max", 5.0),
+                      claim("p50", {"c": [1, 2, 3], "b": [2, 3, 4]}))
+    loaded = _executed("# Chapter\n## 1. Waiting", claim("p50", {"a": [1, 2, 3], "b": [2, 8, 9]}),
+                       "## 2. Again", claim("p50", {"a": [1, 2, 3], "b": [2, 3, 4]}))
+    out = write_claims(tmp_path, "01_x", "quiet", quiet, loadavg_before=0.5, loadavg_after=0.7, seconds=3.0)
+    rows = json.loads(out.read_text())["claims"]
+    assert [(r["key"], r["cell"], r["section"], r["verdict"]) for r in rows] == [
+        ("p50 [a / b]", 1, "1. Waiting", "lower"), ("p50 [a / b] #2", 3, "2. Again", "cannot tell"),
+        ("max", 4, "2. Again", "measured"), ("p50 [c / b]", 5, "2. Again", "cannot tell")]
+    write_claims(tmp_path, "01_x", "loaded", loaded, loadavg_after=2.5)
+    (tmp_path / "old.json").write_text("[]")          # a file of the older list format is skipped
+    text = times.write_list(tmp_path).read_text()
+    assert "- quiet run: 3.0 s, load average 0.5 before, 0.7 after, 4 claims" in text
+    assert "- loaded run: load average 2.5 after, 2 claims" in text
+    assert "### `p50 [a / b]` (cell 1, 1. Waiting): lower / cannot tell  **(verdict differs)**" in text
+    assert "### `p50 [a / b] #2` (cell 3, 2. Again): cannot tell / cannot tell\n" in text
+    assert f"- quiet: {claim('max', 5.0).text}\n- loaded: (not rendered in this run)" in text
 
 
 @pytest.mark.parametrize("args,kwargs,fragment", [

@@ -305,6 +305,15 @@ def test_refuses_a_dir_inside_the_course_or_around_it(tmp_path, where):
     assert not (course / "student").exists()
 
 
+def test_a_root_that_is_not_a_course_folder_is_named_first(tmp_path):
+    # run from a folder that is not the course (no solutions/): that is the error, not "inside the course folder"
+    (tmp_path / "old").mkdir()
+    (tmp_path / "old/f").write_text("x")
+    with pytest.raises(FileNotFoundError, match=r"is not the instructor's course folder.*--root"):
+        rel.release(tmp_path / "old", root=tmp_path, force=True)
+    assert (tmp_path / "old/f").read_text() == "x"
+
+
 def test_refuses_exercises_out_of_sync(tmp_path):
     course = make_course(tmp_path / "course")
     ex = course / "exercises/00_tiny.ipynb"

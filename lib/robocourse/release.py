@@ -426,6 +426,9 @@ def release(target: Path | str, root: Path | str = ".", force: bool = False,
     not an edition (no marker file, entries besides ``.git``) is refused before anything is written.
     """
     root, target = Path(root).resolve(), Path(target).resolve()
+    if not (root / "solutions").is_dir():   # the course folder first: every other rule is judged against it
+        raise FileNotFoundError(f"{root / 'solutions'} not found: {root} is not the instructor's course folder "
+                                "(the one with solutions/); run release from it, or pass --root")
     if _inside(target, root):
         raise ValueError(f"{target} is inside the course folder {root}: the next release would copy the "
                          f"edition into itself; choose a folder outside it, e.g. {root.parent / (root.name + '-student')}")

@@ -251,10 +251,11 @@ class Executor:
             if item is not None:
                 return item
             self._budget = 0
-        t = self._due_timer()
-        if t is not None:
-            self._after_timer = True
-            return t, t._take()
+        if self._timers:
+            t = self._due_timer()
+            if t is not None:
+                self._after_timer = True
+                return t, t._take()
         if self._ready:
             return self._pop_ready()
         return None
@@ -265,15 +266,14 @@ class Executor:
 
         ``timeout_ns`` and ``until_ns`` are on the executor's time base (sim ns in sim time).
         """
-        base0 = self._now_base()
+        ctx = self._context
+        sim = ctx.sim if ctx is not None else None
         end = None
         if timeout_ns is not None:
-            end = base0 + max(0, int(timeout_ns))
+            end = (sim.ns if sim is not None else _time.monotonic_ns()) + max(0, int(timeout_ns))
         if until_ns is not None:
             end = until_ns if end is None else min(end, until_ns)
-        sim = self._sim()
         done_flag = self._done_flag
-        ctx = self._context
         # spin_once(timeout) polls at least once even with a zero timeout; spin loops stop
         # at their end time before polling (so always-due work cannot keep them running)
         first = until_ns is None
@@ -375,12 +375,9 @@ class Executor:
         try:
             item = self._wait_for_work(None if timeout_sec is None else int(timeout_sec * 1e9))
             if item is not None:
-                self._execute_item(*item)
+                self._run(*item)
         finally:
             self._leave()
-
-    def _execute_item(self, ent, work):
-        self._run(ent, work)
 
     def spin_some(self, max_callbacks: int = 1000) -> int:
         """rclcpp ``Executor::spin_some``: run the callbacks ready now, never wait; return how many.
@@ -399,7 +396,7 @@ class Executor:
                 item = self._poll()
                 if item is None:
                     break
-                self._execute_item(*item)
+                self._run(*item)
                 n += 1
             return n
         finally:
@@ -433,7 +430,7 @@ class Executor:
                 item = self._wait_for_work(None, until_ns)
                 if item is None:
                     return
-                self._execute_item(*item)
+                self._run(*item)
         finally:
             self._leave()
 
@@ -464,7 +461,7 @@ class Executor:
                     if end is not None and self._now_base() >= end:
                         return
                     continue
-                self._execute_item(*item)
+                self._run(*item)
         finally:
             self._future_waiting = False
             self._done_flag = None

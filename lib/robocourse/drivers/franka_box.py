@@ -18,7 +18,9 @@ waits for a response (pitfall C8), so a server thread inside the client's proces
   (20) lost in a row: the communication_constraints_violation reflex, the brakes close, the
   client's Move ends with ReflexAborted, and only AutomaticErrorRecovery clears it.
 - ``control_command_success_rate``: the share of the last 100 states sent during the motion that
-  got their command in time (0 when no motion runs). A tick the box itself could not keep (its
+  got their command in time (0 when no motion runs). The motion's first state, the one whose
+  modes switched, is not expected to be answered: libfranka's startMotion reads it and sends
+  nothing, and the first readOnce() waits for the next state (``mode_switch_states``). A tick the box itself could not keep (its
   process was descheduled: ``box_ticks_skipped``) sends no state and is not counted against the
   client; nor is it made up, and a tick that runs late re-phases the schedule so the client
   always has a whole millisecond to answer (``box_late_ticks``): the simulated robot's clock (``message_id``, ms) and its physics
@@ -40,14 +42,20 @@ waits for a response (pitfall C8), so a server thread inside the client's proces
   never sends closes that one connection (``tcp_malformed``), never the box.
 
 A monitor socket (UDP, the box's own, not part of libfranka's protocol) answers ``stats`` with
-the counters as JSON: what a benchmark or a grader reads without touching the client.
+the counters as JSON: what a benchmark or a grader reads without touching the client; ``clock``
+with the robot's clock alone (``{"message_id": N}``, cheap: the grader's pauses ask it in a cycle).
 
 The machine apart from the client (ours, for grading; off unless asked): ``watch <tid>`` on the
 monitor names the client's thread (the one calling ``readOnce``/``writeOnce``). The box then
 reads that thread's run-queue wait (``/proc/<tid>/schedstat``: time it was runnable but another
-task had the CPU) when a run of lost cycles starts, and counts against the client only the lost
-cycles it did not spend waiting for a CPU: the communication reflex trips when the client's *own*
-share of the silence (its code running, or blocking: a sleep, a slow call) reaches the limit.
+task had the CPU) as each state leaves and while a run of lost cycles lasts, and counts against
+the client only the lost cycles it did not spend waiting for a CPU since the first unanswered
+state was sent: the communication reflex trips when the client's *own* share of the silence (its
+code running, or blocking: a sleep, a slow call) reaches the limit. The kernel records a wait
+only when it ends; while the client is runnable the box blames it only if it is over the limit
+even counting every millisecond it could not see as a wait, and otherwise decides once the client
+has run or blocked (``verdicts_deferred``), for at most ``MACHINE_CAP_MS`` of silence: a reflex
+then is the machine's (``reflexes_machine``).
 A correct loop on a loaded machine, held off the CPU for 30 ms, keeps the motion going (the
 robot extrapolates, as it does for any lost cycle; ``lost_machine`` counts those cycles); a loop
 that sleeps 30 ms trips it as the robot would. A robot's own controller never starves, and a
@@ -77,7 +85,9 @@ _RING = 1 << 15
 #: wall time since its last command) with at least SILENCE_LOST states unanswered also trips the communication reflex
 SILENCE_MS, SILENCE_LOST = 25, 5
 #: a watched client (``watch``): the same SILENCE_MS and SILENCE_LOST, the silence counted from when the first
-#: unanswered state was sent, less the time the client waited for a CPU or ran (never stricter than unwatched)
+#: unanswered state was sent, less the time the client waited for a CPU or ran (never stricter than unwatched).
+#: While the client is runnable (its CPU wait not on record yet) the verdict waits, at most MACHINE_CAP_MS of silence
+MACHINE_CAP_MS = 500
 #: the thresholds of the discontinuity reflexes (published limits x our margin, see franka_wire)
 _ACC = fw.MAX_JOINT_ACCELERATION * fw.DISCONTINUITY_MARGIN
 _JERK = fw.MAX_JOINT_JERK * fw.DISCONTINUITY_MARGIN
@@ -141,21 +151,29 @@ class _Motion:
 
 
 class _ClientThread:
-    """The client's thread as the kernel sees it (``/proc/<tid>/schedstat`` and ``stat``): how
-    long, since :meth:`waited_ms` last restarted, it was runnable but not running. Finished
-    waits come from schedstat's run-queue wait (the kernel adds a wait when it ends); a wait
-    still going on is a thread in state R whose CPU time and wait both stand still between two
-    looks (a thread running its own code advances its CPU time within a scheduler tick)."""
+    """The client's thread as the kernel sees it (``/proc/<tid>/schedstat`` and ``stat``): its CPU
+    time and its run-queue wait (time runnable while another task had the CPU) since the state
+    that is waiting for its answer was sent (:meth:`mark` at each send, :meth:`restart` when that
+    state's answer is missing). The kernel adds a wait to ``schedstat`` only when it ends: a wait
+    still going on (the thread in state R) is not on record yet: :meth:`waited_ms` returns the
+    recorded waits plus an estimate of the ongoing one (state R with CPU time and wait standing
+    still since the last look), and :attr:`unknown_ms` bounds what may be missing (the time
+    since the last look that saw the thread asleep, or since the look before it ran), so the box
+    blames the client only for what it did even if every unknown millisecond was a wait."""
 
     def __init__(self, tid: int):
         self.tid = tid
         self.fds = [os.open(f"/proc/{tid}/schedstat", os.O_RDONLY), os.open(f"/proc/{tid}/stat", os.O_RDONLY)]
-        if self._look() is None:
+        got = self._look()
+        if got is None:
             self.close()
             raise ValueError(f"/proc/{tid}/schedstat has no run-queue wait here")
-        self.base_wait, self.base_cpu, self.last, self.last_ns = 0, 0, (0, 0), time.monotonic_ns()
-        self.last_ms = self.ran_ms = 0.0
+        self.marked = self.base = self.last = got[:2]
+        self.last_ns = self.marked_ns = time.monotonic_ns()
+        self.last_ms = self.recorded_ms = self.ran_ms = self.unknown_ms = 0.0
+        self.runnable = False
         self.queued_since: int | None = None
+        self.known_ns = self.last_ns     # up to here every wait of the thread is on record
 
     def _look(self) -> tuple[int, int, bool] | None:
         """(CPU time ns, run-queue wait ns, runnable) or None if the thread is gone."""
@@ -167,22 +185,40 @@ class _ClientThread:
         state = stat[stat.rfind(b")") + 2:stat.rfind(b")") + 3]
         return cpu, wait, state == b"R"
 
-    def waited_ms(self, restart: bool) -> float:
+    def mark(self) -> None:
+        """At a state's send: the thread's CPU time and wait then (the baseline if its answer goes missing)."""
+        got = self._look()
+        if got is not None:
+            self.marked, self.marked_ns = got[:2], time.monotonic_ns()
+
+    def restart(self) -> None:
+        """A run of lost cycles starts: count from the send of its first unanswered state."""
+        self.base, self.queued_since = self.marked, None
+        self.last, self.last_ns = self.marked, self.marked_ns
+        self.known_ns = self.marked_ns
+
+    def waited_ms(self) -> float:
+        """Run-queue wait (ms) since the baseline, the ongoing one estimated; updates ran_ms and runnable."""
         now = time.monotonic_ns()
         got = self._look()
         if got is None:
-            return 0.0
-        cpu, wait, runnable = got
-        if restart:
-            self.base_wait, self.base_cpu, self.queued_since = wait, cpu, None
-        elif (cpu, wait) != self.last or not runnable:
+            self.runnable = False
+            return self.last_ms
+        cpu, wait, self.runnable = got
+        if not self.runnable:
+            self.known_ns = now               # asleep: no wait going on
+        elif (cpu, wait) != self.last:
+            self.known_ns = self.last_ns      # it ran since the last look: a wait going on began after it
+        if (cpu, wait) != self.last or not self.runnable:
             self.queued_since = None          # it ran, or a wait ended (and is in ``wait`` now), or it sleeps
         elif self.queued_since is None:
             self.queued_since = self.last_ns  # runnable and standing still since the last look
+        self.unknown_ms = (now - self.known_ns) / 1e6 if self.runnable else 0.0
         self.last, self.last_ns = (cpu, wait), now
         ongoing = now - self.queued_since if self.queued_since is not None else 0
-        self.last_ms = (wait - self.base_wait + ongoing) / 1e6
-        self.ran_ms = (cpu - self.base_cpu) / 1e6
+        self.recorded_ms = (wait - self.base[1]) / 1e6
+        self.last_ms = self.recorded_ms + ongoing / 1e6
+        self.ran_ms = (cpu - self.base[0]) / 1e6
         return self.last_ms
 
     def where(self) -> str:
@@ -239,6 +275,9 @@ class FrankaBox(TickingBox):
         self.max_lost_in_row = 0
         self._buf = bytearray(65536)
         self._last_state_moving = False       # was the newest state sent during a motion?
+        self._mode_switch_state = False       # ... and the motion's first (no libfranka client answers it)?
+        for k in ("cycles_moving", "commands_ok", "lost", "late", "reflexes", "motions", "motions_finished"):
+            self.counters[k] = 0               # in every stats answer, 0 included
         self._last_command_ns = time.monotonic_ns()   # when the last command of the motion came
         self._sent_ns = np.zeros(_RING, dtype=np.int64)
         self.rtt_ns = np.zeros(_RING, dtype=np.int64)
@@ -524,6 +563,8 @@ class FrankaBox(TickingBox):
             words = data.split()
             if words == [b"stats"]:
                 reply = json.dumps(self.stats()).encode()
+            elif words == [b"clock"]:         # the robot's clock alone: cheap enough to ask within a cycle
+                reply = b'{"message_id": %d}' % self.message_id
             elif len(words) == 2 and words[0] == b"watch" and words[1].isdigit():
                 reply = self._start_watch(int(words[1])).encode()
             else:
@@ -653,14 +694,23 @@ class FrankaBox(TickingBox):
 
     def _machine_ms(self) -> float:
         """How much of the current run of lost cycles (ms) the watched client spent waiting for a
-        CPU (0 when nothing is watched)."""
+        CPU, counted from the send of its first unanswered state (0 when nothing is watched)."""
         if self._watch is None:
             return 0.0
-        return self._watch.waited_ms(restart=self.lost_in_row == 1)
+        if self.lost_in_row == 1:
+            self._watch.restart()
+        return self._watch.waited_ms()
 
     def tick(self) -> None:
         c = self.counters
-        if self.motion is not None and self._last_state_moving:   # a state of this motion awaits its command
+        switch, self._mode_switch_state = self._mode_switch_state, False
+        if switch and self.motion is not None and self.pending is None:
+            # the motion's first state (its modes switched) is read by libfranka's startMotion, which
+            # sends nothing; every client's first readOnce() then waits for the next one. No client
+            # answers it, so it is neither lost nor in time: the robot holds
+            c["mode_switch_states"] += 1
+            self._extrapolate(self.message_id)
+        elif self.motion is not None and self._last_state_moving:   # a state of this motion awaits its command
             c["cycles_moving"] += 1
             cmd, self.pending = self.pending, None
             if cmd is not None:
@@ -680,8 +730,22 @@ class FrankaBox(TickingBox):
                     self._unanswered_since_ns = int(self._sent_ns[self.message_id % _RING])
                 machine_ms = self._machine_ms()
                 own = self.lost_in_row - machine_ms
-                self.max_own_lost_in_row = max(self.max_own_lost_in_row, max(0, int(own)))
-                if own >= self.max_lost or self._silence_too_long(machine_ms):
+                trip = own >= self.max_lost or self._silence_too_long(machine_ms)
+                if trip and self._watch is not None and self._watch.runnable:
+                    # the client is runnable: it may be waiting for a CPU now, a wait the kernel puts
+                    # on record only when it ends. Blame it only if it is over the limit even when
+                    # every unknown millisecond was a wait; else decide once it has run or blocked
+                    # (up to MACHINE_CAP_MS of silence: then the reflex is the machine's)
+                    most = self._watch.recorded_ms + self._watch.unknown_ms
+                    if not (self.lost_in_row - most >= self.max_lost or self._silence_too_long(most)):
+                        if self._silent_ms() < MACHINE_CAP_MS:
+                            trip = False
+                            c["verdicts_deferred"] += 1
+                        else:
+                            c["reflexes_machine"] += 1
+                if trip or self._watch is None or not self._watch.runnable:
+                    self.max_own_lost_in_row = max(self.max_own_lost_in_row, max(0, int(own)))
+                if trip:
                     self._reflex(fw.ERR_COMMUNICATION_CONSTRAINTS_VIOLATION,
                                  detail=f"{self.lost_in_row} lost in a row" + self._machine_note())
                 else:
@@ -704,7 +768,10 @@ class FrankaBox(TickingBox):
         self.message_id += 1
         self._pack_state()
         out = self._values.tobytes()
+        self._mode_switch_state = self.motion is not None and not self._last_state_moving
         self._last_state_moving = self.motion is not None
+        if self._watch is not None and self.motion is not None:
+            self._watch.mark()                 # the client's CPU time and wait as this state leaves
         self._sent_ns[self.message_id % _RING] = time.monotonic_ns()
         for conn in list(self.conns.values()):
             if conn.udp is not None:

@@ -7,20 +7,22 @@ own 127.0.0.x, the robot's limit of 20 lost cycles):
 A. the pause test: ``run_motion(robot, offset, seconds)`` with the grader's ``offset(t)`` pausing
    a few times (seeded, shown in the feedback) for less than 20 cycles (6-12 ms, extended to at
    least 3 states of the robot's clock, a starved box sending fewer than one per ms, but never
-   past 14 ms): a gc pause or a slow step, as a real loop meets them.
+   past 14 ms, the reads of that clock included): a gc pause or a slow step, as a real loop
+   meets them.
 
    What the student's code controls is judged apart from what the machine did: the box is told
    which thread runs the loop (:func:`robocourse.drivers.box_watch`) and counts against it only
    the lost cycles that thread did not spend waiting for a CPU (a grading sandbox cannot give
    the loop real-time priority, and a shared machine holds any loop off the CPU now and then;
-   the box's counters ``lost_machine`` and ``max_own_lost_in_row`` show both). The probe adds no
-   CPU load of its own: what the machine does is not what is graded. Before the motion, the
-   grader warms pylibfranka up with a short hold of its own, so a cold first cycle is not the
-   student's. Where the box cannot watch the thread (``watching`` false), a communication reflex
-   is retried, up to ``ATTEMPTS`` runs in all (the record is the last run's, with
+   the box's counters ``lost_machine``, ``max_own_lost_in_row`` and ``verdicts_deferred`` show
+   it). The probe adds no CPU load of its own: what the machine does is not what is graded.
+   Before the motion, the grader warms pylibfranka up with a short hold of its own, so a cold
+   first cycle is not the student's. Where the box cannot watch the thread (``watching`` false),
+   or watched it held off the CPU past the box's cap (``reflexes_machine``), a communication
+   reflex is retried, up to ``ATTEMPTS`` runs in all (the record is the last run's, with
    ``attempts``). Recorded: every ``t`` the loop passed to ``offset``, what it returned or
-   raised, the robot's state afterwards and the box's counters. The objects that exist before the
-   student's code runs (the grader's) are frozen out of the garbage collector (``gc.freeze()``).
+   raised, the robot's state afterwards and the box's counters. The objects that exist before
+   the student's code runs (the grader's) are frozen out of the garbage collector (``gc.freeze()``).
 B. the stall: the same call, with ``offset`` blocking 30 ms once (and until the robot has sent
    25 states): the robot must stop with communication_constraints_violation, and the loop must
    recover and let the exception out.
@@ -45,9 +47,10 @@ def _offset(amplitude, seconds, pauses, record, robot_ms, min_states=3, max_ms=1
     """The grader's offset(t): a smooth cosine from 0 to ``amplitude`` over ``seconds``. It pauses
     at each (t, ms) of ``pauses`` once, when t first reaches it (inside the student's cycle): for
     ``ms`` of wall time, and until the robot has sent at least ``min_states`` states meanwhile (a
-    starved box sends fewer than one per ms), never longer than ``max_ms`` of wall time
-    (``robot_ms()`` reads the robot's clock from the box's monitor, None if the box did not
-    answer at once: a starved box must not stretch the grader's pause)."""
+    starved box sends fewer than one per ms), never longer than ``max_ms`` of wall time in all,
+    the reads of the robot's clock included (``robot_ms(timeout)`` reads it from the box's
+    monitor, None if the box did not answer within ``timeout`` s: a starved box must not stretch
+    the grader's pause past the robot's limit; an 18 ms pause once made 20 lost cycles)."""
     pending = sorted((float(t), float(ms)) for t, ms in pauses)
 
     def offset(t):
@@ -56,16 +59,18 @@ def _offset(amplitude, seconds, pauses, record, robot_ms, min_states=3, max_ms=1
             record.append(t)
         while pending and t >= pending[0][0]:
             ms = pending.pop(0)[1]
-            start, t0 = robot_ms(), time.monotonic()
-            time.sleep(ms / 1000)
+            t0 = time.monotonic()
+            end = t0 + max_ms / 1000
+            start = robot_ms(ms / 2000)
+            time.sleep(max(0.0, t0 + ms / 1000 - time.monotonic()))
             # then until the robot has sent min_states, in few long sleeps (each wake-up waits for
             # a CPU on a loaded machine, and the box counts that wait as the machine's)
-            while start is not None and (left := max_ms / 1000 - (time.monotonic() - t0)) > 0:
-                now = robot_ms()
+            while start is not None and (left := end - time.monotonic()) > 0:
+                now = robot_ms(left)
                 missing = 1 if now is None else min_states - (now - start)
                 if missing <= 0:
                     break
-                time.sleep(min(missing * 1e-3, left))
+                time.sleep(max(0.0, min(missing * 1e-3, end - time.monotonic())))
         s = min(max(t / seconds, 0.0), 1.0)
         return [a * (1 - math.cos(math.pi * s)) / 2 for a in amplitude]
 
@@ -74,7 +79,8 @@ def _offset(amplitude, seconds, pauses, record, robot_ms, min_states=3, max_ms=1
 
 class _RobotClock:
     """The box's robot clock (``message_id``, ms) from its monitor socket; None when the answer
-    does not come within ``timeout`` (a late answer is read, and ignored, by the next call)."""
+    does not come within ``timeout`` (at most the clock's own; a late answer is read, and
+    ignored, by the next call)."""
 
     def __init__(self, box, timeout: float):
         import socket
@@ -83,7 +89,7 @@ class _RobotClock:
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.timeout = timeout
 
-    def __call__(self) -> int | None:
+    def __call__(self, timeout: float | None = None) -> int | None:
         import json
 
         self.sock.setblocking(False)
@@ -92,8 +98,8 @@ class _RobotClock:
                 self.sock.recv(1 << 16)         # answers that came too late
         except (BlockingIOError, ConnectionRefusedError):
             pass
-        self.sock.settimeout(self.timeout)
-        self.sock.sendto(b"stats", self.address)
+        self.sock.settimeout(max(1e-4, min(self.timeout, self.timeout if timeout is None else timeout)))
+        self.sock.sendto(b"clock", self.address)
         try:
             return int(json.loads(self.sock.recv(1 << 16)).get("message_id", 0))
         except (TimeoutError, ConnectionRefusedError, ValueError):
@@ -137,10 +143,10 @@ def _call(run_motion, robot, offset, seconds) -> dict:
 
 
 _COUNTS = ("cycles_moving", "commands_ok", "lost", "late", "reflexes", "motions", "motions_finished", "tcp_StopMove",
-           "box_ticks_skipped", "box_late_ticks", "lost_machine")
+           "box_ticks_skipped", "box_late_ticks", "lost_machine", "reflexes_machine", "verdicts_deferred")
 _STATS = ("cycles_moving", "commands_ok", "lost", "late", "max_lost_in_row", "max_own_lost_in_row", "lost_machine",
-          "reflexes", "motions", "motions_finished", "tcp_StopMove", "box_ticks_skipped", "box_late_ticks",
-          "last_reflex", "watching")
+          "reflexes", "reflexes_machine", "verdicts_deferred", "motions", "motions_finished", "tcp_StopMove",
+          "box_ticks_skipped", "box_late_ticks", "last_reflex", "watching")
 
 
 def _recover(robot) -> None:
@@ -190,10 +196,12 @@ def franka_loop_probe(inputs, run_motion):
             out["a"] = {**result, "q0": before["q"], "after": _state(robot), "ts": ts, "attempts": attempt,
                         "stats": {k: (stats.get(k, 0) - base.get(k, 0)) if k in _COUNTS else stats.get(k, 0)
                                   for k in _STATS}}
-            # retried only where the box could not tell the machine's delays from the loop's own:
-            # a loop that blocks by itself trips it every time
+            # retried only where the machine, not the loop, may have tripped it: the box could not
+            # watch the loop, or it watched the loop held off the CPU for longer than its cap. A loop
+            # that blocks by itself trips it every time
             comm = "reflex_communication_constraints_violation"
-            if watching or int(stats.get(comm, 0)) - int(base.get(comm, 0)) == 0:   # the robot's own count
+            machine = int(stats.get("reflexes_machine", 0)) - int(base.get("reflexes_machine", 0))
+            if (watching and not machine) or int(stats.get(comm, 0)) - int(base.get(comm, 0)) == 0:
                 break
             if out["a"]["after"]["mode"] != "Idle":
                 _recover(robot)

@@ -12,12 +12,12 @@ Three ways, chosen by :func:`mode` (the grader says which in its summary):
   the memory, pids, cpu and cpuset hierarchies, each created *under the grader's own cgroup*
   (usage still rolls up to whoever limits the grader): ``memory.limit_in_bytes`` (and
   ``memsw``, no swap), ``pids.max``, ``cpu.cfs_quota_us`` (at most one CPU) and, for an exclusive
-  CPU slot, ``cpuset.cpus``. The sandbox's first process joins them before it execs, so every
+  CPU slot, ``cpuset.cpus`` and a weight (``cpu.shares``, :data:`TIMING_WEIGHT`). The sandbox's first process joins them before it execs, so every
   descendant is inside. A kernel OOM kill or a refused fork is read back (``memory.oom_control``,
   ``pids.events``) and ends the run with the reason.
 - ``"cgroup-v2-delegated"`` (not root, a systemd user session): the command runs under
   ``systemd-run --user --scope`` with ``MemoryMax``, ``MemorySwapMax=0``, ``TasksMax``,
-  ``CPUQuota`` and, for a slot, ``AllowedCPUs`` (cgroup v2, delegated to the user).
+  ``CPUQuota`` and, for a slot, ``AllowedCPUs`` and ``CPUWeight`` (cgroup v2, delegated to the user).
 - ``"polling"`` (neither): the sandbox's resident memory and process count are polled every
   0.1 s with RLIMIT_AS per process as a backstop; memory held outside processes is counted only
   where it is visible (the sandbox's private /dev/shm and its work folder). CPU isolation is an
@@ -133,6 +133,14 @@ def mode() -> str:
     return _MODE[0]
 
 
+#: A timing slot's cgroup weight, in ordinary processes per CPU it was given (cgroup v1 ``cpu.shares`` =
+#: 1024 x this x CPUs; v2 ``CPUWeight``). The cgroup is one scheduling entity: at the default weight a
+#: submission's loop *and* the simulated robot it talks to shared one process's turn against every busy
+#: process beside the grader (the FR3 box then sent 5 states in 70 ms under chapter 1's CPU load and the
+#: verdict was the machine's). Its CPU time stays capped by its quota; the weight only decides who runs first.
+TIMING_WEIGHT = 8
+
+
 def allowed_cpus() -> list[int]:
     return sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else list(range(os.cpu_count() or 1))
 
@@ -219,6 +227,8 @@ class Box:
                 period = int((self.dirs["cpu"] / "cpu.cfs_period_us").read_text())
                 share = len(self.cpus) if self.cpus else 1
                 (self.dirs["cpu"] / "cpu.cfs_quota_us").write_text(str(period * share))
+                if self.cpus:   # a timing slot weighs as TIMING_WEIGHT ordinary processes per CPU (see below)
+                    (self.dirs["cpu"] / "cpu.shares").write_text(str(1024 * TIMING_WEIGHT * share))
                 cpus = ",".join(map(str, self.cpus)) if self.cpus else \
                     (self.dirs["cpuset"].parent / "cpuset.cpus").read_text().strip()
                 (self.dirs["cpuset"] / "cpuset.cpus").write_text(cpus)
@@ -268,7 +278,7 @@ class Box:
         props = [f"MemoryMax={self.memory_mb}M", "MemorySwapMax=0", f"TasksMax={self.max_processes}",
                  f"CPUQuota={100 * (len(self.cpus) if self.cpus else 1)}%"]
         if self.cpus:
-            props.append(f"AllowedCPUs={','.join(map(str, self.cpus))}")
+            props += [f"AllowedCPUs={','.join(map(str, self.cpus))}", f"CPUWeight={100 * TIMING_WEIGHT * len(self.cpus)}"]
         cmd = ["systemd-run", "--user", "--scope", "--quiet", f"--unit={self.unit}"]
         for p in props:
             cmd += ["-p", p]

@@ -54,9 +54,11 @@ numbers you re-derive, so the explanation matches the verdict printed.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -279,12 +281,56 @@ def say(*parts) -> None:
 
 
 def recorded_claims(notebook) -> list[dict]:
-    """Every claim record in an executed notebook's outputs (a dict loaded by nbformat/json)."""
+    """Every claim record in an executed notebook's outputs (a dict loaded by nbformat/json).
+
+    Each record also carries ``_shown`` (the Markdown the output showed), ``_cell`` (the cell's
+    index) and ``_section`` (the last Markdown heading above it, "" before the first)."""
     out = []
-    for cell in notebook.get("cells", []):
+    section = ""
+    for i, cell in enumerate(notebook.get("cells", [])):
+        if cell.get("cell_type") == "markdown":
+            src = cell.get("source", "")
+            for line in ("".join(src) if isinstance(src, list) else src).splitlines():
+                if line.startswith("#"):
+                    section = line.lstrip("#").strip()
+            continue
         for o in cell.get("outputs", []) if cell.get("cell_type") == "code" else []:
             recs = (o.get("metadata") or {}).get(METADATA_KEY)
             if recs:
                 md = o.get("data", {}).get("text/markdown", "")
-                out.extend({**r, "_shown": "".join(md) if isinstance(md, list) else md} for r in recs)
+                out.extend({**r, "_shown": "".join(md) if isinstance(md, list) else md, "_cell": i,
+                            "_section": section} for r in recs)
+    return out
+
+
+def claim_keys(records: list[dict]) -> list[str]:
+    """A key per record that names the same claim in another run of the notebook: its ``what`` and
+    its cases (``wake-up p50 [hybrid / sleep]``), with ``#2``, ``#3``... on a later claim of the
+    same key (the sentence itself changes with the numbers; the name, the cases and their order
+    do not)."""
+    seen: dict[str, int] = {}
+    keys = []
+    for r in records:
+        cases = [c for c in r.get("values", {}) if c]
+        base = r["what"] + (f" [{' / '.join(cases)}]" if cases else "")
+        seen[base] = seen.get(base, 0) + 1
+        keys.append(base if seen[base] == 1 else f"{base} #{seen[base]}")
+    return keys
+
+
+def write_claims(folder, notebook_name: str, condition: str, notebook: dict, **about) -> Path:
+    """Write the claims an executed notebook rendered to ``folder/<notebook_name>.<condition>.json``.
+
+    One object: ``about`` (e.g. the load average and the run's seconds) and ``claims``, a row per
+    claim (key, what, verdict, text, cell, section). ``benchmarks/notebook_times.py --claims`` and
+    ``tests/test_chapters_under_load.py`` (``ROBOCOURSE_CLAIMS_OUT``) write these; the script's
+    ``--list`` turns a folder of them into a per-chapter list, quiet beside loaded."""
+    records = recorded_claims(notebook)
+    rows = [{"key": k, "what": r["what"], "verdict": r["verdict"], "text": r["text"], "cell": r["_cell"],
+             "section": r["_section"]} for k, r in zip(claim_keys(records), records)]
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    out = folder / f"{notebook_name}.{condition}.json"
+    out.write_text(json.dumps({"notebook": notebook_name, "condition": condition, "about": about,
+                               "claims": rows}, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
     return out
