@@ -78,6 +78,19 @@ def print_table(rows: dict, conditions: list[str]) -> None:
     print(flush=True)
 
 
+def _failed_lines(feedback: str, more: int = 2) -> list[str]:
+    """Each failed sub-test's line and up to ``more`` lines of its message that follow."""
+    lines, out = feedback.splitlines(), []
+    for i, line in enumerate(lines):
+        if line.strip().startswith("[FAIL]") and " sub-tests failed" not in line:
+            out.append(line)
+            for nxt in lines[i + 1:i + 1 + more]:
+                if not nxt.strip() or nxt.strip().startswith("["):
+                    break
+                out.append(nxt)
+    return out
+
+
 def verdict_row(v, condition: str) -> dict:
     return {"check": v.check, "answer": v.answer, "kind": v.kind, "run": v.run, "condition": condition,
             "points": v.points, "weight": v.weight, "full": abs(v.points - v.weight) < 1e-9, "ok": v.ok,
@@ -154,8 +167,7 @@ def main(argv=None) -> int:
                       f"load avg {loadavg[condition][-1]:4.1f}  "
                       f"{len(verdicts) - len(bad)}/{len(verdicts)} as expected"
                       + "".join(f"\n    UNEXPECTED {v.check} / {v.answer}: {'; '.join(v.problems)}"
-                                + "".join(f"\n        {line.strip()}" for line in v.feedback.splitlines()
-                                          if line.strip().startswith("[FAIL]") and " sub-tests failed" not in line)
+                                + "".join(f"\n        {line.strip()[:400]}" for line in _failed_lines(v.feedback))
                                 for v in bad[:5]),
                       flush=True)
         if len(banks) > 1:  # a long run shows each bank's table as soon as it is done

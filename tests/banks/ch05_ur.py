@@ -83,7 +83,7 @@ def follow_path(rtde_c, rtde_r, path, duration):
         time.sleep(0.01)
     rtde_c.servoStop()
     return True
-''', score=but(P), property="one servoJ per 2 ms cycle", says="the 10th percentile"),
+''', score=but(P), property="one servoJ per 2 ms cycle", says="of its own"),
         Answer("servoJ's False ignored", replace=[("            return False                      # the robot stopped",
                                                    "            pass                              # the robot stopped")],
                score=but(S), property="returns False when the robot stopped", says="returned True"),

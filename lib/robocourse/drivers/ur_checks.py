@@ -16,9 +16,10 @@ itself, twice:
   the targets it received within ``MAX_ARM_LAG_S`` (measured in the box's own ticks: servoJ's
   ``t`` + ``lookahead_time``, 32 ms asked; a 0.2 s lookahead lags 0.2 s). A loaded machine that
   delays the loop's targets makes the arm trail the wall-clock path: that lag is shown, never
-  judged. The loop must be paced at 2 ms (the 10th percentile of the intervals between its
-  ``path()`` calls within ``CYCLE_S``: a loaded machine makes most cycles late, never shorter
-  than the loop's own period; a flood above ``2 * MAX_HZ`` packages per s fails too), never go
+  judged. The loop must be paced at 2 ms: never more than 12 ``path()`` calls in any 20 ms
+  (``DENSE_S``: a machine's delays only thin the calls out; a flood above ``2 * MAX_HZ``
+  packages per s fails too) and its own cycle (the median interval between calls less the
+  machine's run-queue wait within it) at most ``MAX_CYCLE_S`` (a 100 Hz loop's is 10 ms); never go
   ``1 / WATCHDOG_HZ`` without a cycle *of its own* (each gap less the time the machine kept the
   thread off the CPU: its run-queue wait from ``/proc/thread-self/schedstat``, which the probe
   samples at every ``path()`` call), no watchdog stop, and ``servoStop`` at the end. Where the
@@ -47,10 +48,11 @@ from robocourse.grading.schema import Any, Bool, Dict, List, Null, Number, OneOf
 
 from .ur_probes import (
     BEHIND_S,
-    CYCLE_S,
+    DENSE_S,
     HICCUP_AT,
     HICCUP_S,
     MAX_ARM_LAG_S,
+    MAX_CYCLE_S,
     MAX_HZ,
     RETURN_WITHIN_S,
     RUN_A_S,
@@ -109,9 +111,6 @@ def _started(a):
                           f"follow_path called path() {len(calls)} times in a {RUN_A_S} s run: call it once per "
                           "cycle with the time since you started (path(t) gives the six joint targets)")
     return calls
-
-
-CLEAN_S = 0.0005        # a cycle the machine held the loop off the CPU for less than this is the loop's own
 
 
 class _Loop:
@@ -280,21 +279,26 @@ def _pacing(inputs, out):
                           + (f"; the machine held it off the CPU {loop.machine[i] * 1e3:.0f} ms of that" if loop.known else "")
                           + f") although path() paused only {HICCUP_S * 1e3:.0f} ms: a loop that stops streaming "
                           "leaves the robot to its watchdog; keep one servoJ per 2 ms cycle until the duration is over")
-    # the cycle the loop keeps when it gets the CPU: the 10th percentile of the intervals between its path()
-    # calls in which the machine did not hold it off the CPU (a loaded machine makes most cycles late, never
-    # shorter than the loop's own period); all of them where the machine gave it too few such cycles
-    clean = loop.gaps[loop.machine < CLEAN_S] if loop.known else loop.gaps
-    gaps, which = (clean, "cycles the machine did not delay") if len(clean) >= 20 else (loop.gaps, "cycles")
-    typical = float(np.percentile(gaps, 10))
-    if not CYCLE_S[0] <= typical <= CYCLE_S[1]:
-        raise CheckFailed(f"your loop's fastest cycles took {typical * 1e3:.2f} ms (the 10th percentile of the "
-                          f"intervals between its path() calls, over {len(gaps)} {which}; "
-                          f"{servo / duration:.0f} servoJ targets per s): one "
-                          f"servoJ per 2 ms cycle, accepted {CYCLE_S[0] * 1e3:g}-{CYCLE_S[1] * 1e3:g} ms; pace it "
-                          "with t = rtde_c.initPeriod() ... rtde_c.waitPeriod(t) and call path() once per cycle")
-    return (f"fastest cycles {typical * 1e3:.2f} ms (10th percentile of {len(gaps)} {which}), median of all "
-            f"{np.median(loop.gaps) * 1e3:.2f} ms, "
-            f"{servo / duration:.0f} servoJ targets per s; {loop.note()}")
+    # not faster than one cycle per 2 ms: the most path() calls in any DENSE_S window (a machine's delays only
+    # ever thin the calls out; a loop that catches up after a delay makes one short cycle, not a burst)
+    dense = int(np.max(np.searchsorted(loop.now, loop.now + DENSE_S, side="left") - np.arange(len(loop.now))))
+    most = int(round(DENSE_S / 0.002)) + 2
+    if dense > most:
+        raise CheckFailed(f"your loop called path() {dense} times within {DENSE_S * 1e3:.0f} ms ({servo / duration:.0f} "
+                          f"servoJ targets per s in all): one servoJ per 2 ms cycle is {most - 2} in {DENSE_S * 1e3:.0f} "
+                          "ms; pace it with t = rtde_c.initPeriod() ... rtde_c.waitPeriod(t) and call path() once per cycle")
+    # not slower: the loop's own cycle, the median interval between its path() calls less the time the machine
+    # kept it off the CPU within each (a loaded machine makes cycles late; their own share stays one period)
+    own = float(np.median(loop.own))
+    if own > MAX_CYCLE_S:
+        raise CheckFailed(f"your loop's cycles took {own * 1e3:.1f} ms of its own (the median interval between its "
+                          "path() calls" + (", less the time the machine kept it off the CPU" if loop.known else "")
+                          + f"; {servo / duration:.0f} servoJ targets per s): one servoJ per 2 ms cycle, accepted up "
+                          f"to {MAX_CYCLE_S * 1e3:g} ms; pace it with t = rtde_c.initPeriod() ... rtde_c.waitPeriod(t) "
+                          "and call path() once per cycle")
+    return (f"at most {dense} path() calls in {DENSE_S * 1e3:.0f} ms, {own * 1e3:.2f} ms of its own per cycle (median), "
+            f"{np.median(loop.gaps) * 1e3:.2f} ms by the clock, {servo / duration:.0f} servoJ targets per s; "
+            f"{loop.note()}")
 
 
 def _end(inputs, out):

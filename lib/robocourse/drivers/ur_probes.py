@@ -25,8 +25,10 @@ BEHIND_S = 0.05            # after the pause, path(t) may be asked for a time at
 MAX_ARM_LAG_S = 0.08       # the arm may follow the targets it received this late: servoJ's t + lookahead_time
                            # (0.002 + 0.03 s asked; a lookahead_time of 0.2 s lags 0.2 s)
 SENT_TOL = 1e-6            # rad: a target the robot received is one path(t) returned (RTDE carries doubles)
-CYCLE_S = (0.001, 0.006)   # the loop's own cycle (median interval between path() calls, less the time the machine
-                           # kept it off the CPU): 2 ms paced; a 100 Hz loop (10 ms) or a busy one (us) falls outside
+MAX_CYCLE_S = 0.006        # the loop's own cycle (median interval between path() calls, less the time the machine
+                           # kept it off the CPU) at most this: 2 ms paced, a 100 Hz loop's 10 ms fails
+DENSE_S = 0.02             # and never more than DENSE_S / 2 ms + 2 path() calls in any window this long (faster
+                           # than 2 ms: a machine's delays only thin the calls out)
 MAX_HZ = 650.0             # more RTDE packages than 2 x this per s: a flood
 RETURN_WITHIN_S = 0.5      # after the watchdog stopped the robot, follow_path must have returned by then
 
