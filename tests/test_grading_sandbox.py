@@ -318,3 +318,21 @@ def test_a_cgroup_that_refuses_a_process_falls_back_to_polling_before_the_submis
         assert box.mode == "polling" and box.dirs == {}
         # the parent saw the errno and names the controller (preexec_fn would have said only "an exception")
         assert "the cgroup refused a process (its cpuset cgroup: No space left on device)" in box.describe()
+
+
+def test_a_timing_slot_weighs_as_many_processes_as_its_cpus_times_the_timing_weight():
+    """Issue 26: a cgroup is one scheduling entity; at the default weight a timing submission's loop and
+    the simulated robot it talks to shared one process's turn against every busy process beside the grader."""
+    from robocourse.grading import resources
+
+    if resources.mode() != "cgroup-v1":
+        pytest.skip(f"cgroup v1 is not writable here (mode {resources.mode()})")
+    cpus = tuple(resources.allowed_cpus())
+    with resources.Box(512, 64, cpus, mode="cgroup-v1") as slot, resources.Box(512, 64, None, mode="cgroup-v1") as plain:
+        if "polling" in (slot.mode, plain.mode):
+            pytest.skip(f"the cgroups could not be made here: {slot.fallback or plain.fallback}")
+        shares = int((slot.dirs["cpu"] / "cpu.shares").read_text())
+        assert shares == 1024 * resources.TIMING_WEIGHT * len(cpus)
+        assert int((plain.dirs["cpu"] / "cpu.shares").read_text()) == 1024      # a plain submission: one process
+    systemd = resources.Box(512, 64, cpus, mode="cgroup-v2-delegated", unit="u").wrap(["true"])
+    assert f"CPUWeight={min(10000, 100 * resources.TIMING_WEIGHT * len(cpus))}" in systemd

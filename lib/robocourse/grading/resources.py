@@ -168,7 +168,8 @@ def mode() -> str:
 #: 1024 x this x CPUs; v2 ``CPUWeight``). The cgroup is one scheduling entity: at the default weight a
 #: submission's loop *and* the simulated robot it talks to shared one process's turn against every busy
 #: process beside the grader (the FR3 box then sent 5 states in 70 ms under chapter 1's CPU load and the
-#: verdict was the machine's). Its CPU time stays capped by its quota; the weight only decides who runs first.
+#: verdict was the machine's). Its CPU time stays capped by its quota; the weight only decides who runs first
+#: (clamped to the kernel's and systemd's maxima: 262144 shares, CPUWeight 10000).
 TIMING_WEIGHT = 8
 
 
@@ -259,7 +260,7 @@ class Box:
                 share = len(self.cpus) if self.cpus else 1
                 (self.dirs["cpu"] / "cpu.cfs_quota_us").write_text(str(period * share))
                 if self.cpus:   # a timing slot weighs as TIMING_WEIGHT ordinary processes per CPU (see below)
-                    (self.dirs["cpu"] / "cpu.shares").write_text(str(1024 * TIMING_WEIGHT * share))
+                    (self.dirs["cpu"] / "cpu.shares").write_text(str(min(262144, 1024 * TIMING_WEIGHT * share)))
                 cpus = ",".join(map(str, self.cpus)) if self.cpus else \
                     (self.dirs["cpuset"].parent / "cpuset.cpus").read_text().strip()
                 (self.dirs["cpuset"] / "cpuset.cpus").write_text(cpus)
@@ -309,7 +310,7 @@ class Box:
         props = [f"MemoryMax={self.memory_mb}M", "MemorySwapMax=0", f"TasksMax={self.max_processes}",
                  f"CPUQuota={100 * (len(self.cpus) if self.cpus else 1)}%"]
         if self.cpus:
-            props += [f"AllowedCPUs={','.join(map(str, self.cpus))}", f"CPUWeight={100 * TIMING_WEIGHT * len(self.cpus)}"]
+            props += [f"AllowedCPUs={','.join(map(str, self.cpus))}", f"CPUWeight={min(10000, 100 * TIMING_WEIGHT * len(self.cpus))}"]
         cmd = ["systemd-run", "--user", "--scope", "--quiet", f"--unit={self.unit}"]
         for p in props:
             cmd += ["-p", p]
