@@ -640,7 +640,7 @@ def budget(n):
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(node)
     zt = transport.ZenohTransport.__new__(transport.ZenohTransport)   # no session: hooks only
-    zt.dropped_no_attachment = zt.dropped_undecodable = zt.receive_errors = 0
+    zt.dropped_no_attachment = zt.dropped_undecodable = 0
     on_sample = zt._on_sample(sub)
     loc = transport._Local("budget", None, "budget", _Put())
     loc.t = String
@@ -722,7 +722,7 @@ def _pieces(n, sample_type):
     pub = node.create_publisher(String, "/pong", qos)
     sub = node.create_subscription(String, "/ping", pub.publish, qos)
     zt = transport.ZenohTransport.__new__(transport.ZenohTransport)   # no session: hooks only
-    zt.dropped_no_attachment = zt.dropped_undecodable = zt.receive_errors = 0
+    zt.dropped_no_attachment = zt.dropped_undecodable = 0
     on_sample = zt._on_sample(sub)
     loc = transport._Local("pieces", None, "pieces", _Put())
     loc.t = String
@@ -854,9 +854,9 @@ THREAD_GROUPS = ("main thread", "other Python threads", "zenoh's own threads")
 def _thread_cpu(pid):
     """CPU seconds so far of process ``pid``'s threads, by :data:`THREAD_GROUPS`: the main
     thread (robocourse: the executor, so callbacks, publish, encode and ``put``; raw zenoh: idle),
-    the other threads named like the process (robocourse: each subscription's receive thread,
-    attachment check and decode; raw zenoh: zenoh-python's callback thread, callback and
-    ``put``), and zenoh's runtime threads (``rx-*``, ``tx-*``, ``net-*``...: sockets, routing,
+    the other threads named like the process (zenoh-python's callback threads; robocourse: the
+    sample callback, attachment check and decode; raw zenoh: the echo callback and ``put``), and
+    zenoh's runtime threads (``rx-*``, ``tx-*``, ``net-*``...: sockets, routing,
     batching)."""
     tick = os.sysconf("SC_CLK_TCK")
     with open(f"/proc/{pid}/comm") as fh:
