@@ -19,7 +19,13 @@ sentence in the quiet run beside the loaded one (rebuilt from every JSON in DIR,
 without and once with ``--load`` into the same DIR). ``--list DIR`` only rebuilds that list.
 "Quiet" means without our CpuLoad, not an idle machine: read the load averages it records.
 
-    .venv/bin/python benchmarks/notebook_times.py [--repeats 3] [--load] [--claims DIR] [chapters/01_realtime_basics.ipynb ...]
+Beside the wall time, the CPU time each run cost (user + system of the kernel and of every
+process it waited for: the boxes, chapter 1's CpuLoad processes a chapter starts, from
+``getrusage(RUSAGE_CHILDREN)``): less sensitive to the neighbours' load than the wall time, it
+tells a notebook that computes too much from one that waits too long. ``--cells N`` lists each
+notebook's N slowest cells (median seconds over the repeats, from nbclient's timing metadata).
+
+    .venv/bin/python benchmarks/notebook_times.py [--repeats 3] [--load] [--claims DIR] [--cells N] [chapters/01_realtime_basics.ipynb ...]
     .venv/bin/python benchmarks/notebook_times.py --repeats 1 --claims /tmp/claims chapters/*.ipynb
     .venv/bin/python benchmarks/notebook_times.py --repeats 1 --claims /tmp/claims --load chapters/*.ipynb
     .venv/bin/python benchmarks/notebook_times.py --list /tmp/claims     # rebuild /tmp/claims/claims.md
@@ -31,6 +37,7 @@ import argparse
 import contextlib
 import json
 import os
+import resource
 import statistics
 import sys
 import time
@@ -46,6 +53,26 @@ ROOT = Path(__file__).resolve().parents[1]
 BUDGET_S = 60.0
 
 
+def children_cpu_s() -> float:
+    """User + system seconds of this process's children that have been waited for, so far."""
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
+def cell_seconds(nb) -> dict[int, float]:
+    """{cell index: seconds} from nbclient's timing metadata (execute_input to execute_reply)."""
+    from datetime import datetime
+
+    out = {}
+    for i, cell in enumerate(nb.cells):
+        ex = cell.get("metadata", {}).get("execution", {})
+        if "iopub.execute_input" in ex and "shell.execute_reply" in ex:
+            t0, t1 = (datetime.fromisoformat(ex[k].replace("Z", "+00:00"))
+                      for k in ("iopub.execute_input", "shell.execute_reply"))
+            out[i] = (t1 - t0).total_seconds()
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("notebooks", nargs="*", type=Path,
@@ -56,6 +83,7 @@ def main(argv=None) -> int:
                     help="keep each notebook's rendered claims (JSON), its executed copy and DIR/claims.md there")
     ap.add_argument("--list", type=Path, metavar="DIR",
                     help="only rebuild DIR/claims.md from the JSON files a --claims run left there (runs nothing)")
+    ap.add_argument("--cells", type=int, default=0, metavar="N", help="list each notebook's N slowest cells")
     args = ap.parse_args(argv)
     if args.list is not None:
         if args.notebooks or args.claims or args.load:
@@ -68,12 +96,16 @@ def main(argv=None) -> int:
         return 0
     if args.repeats < 1:
         ap.error(f"--repeats {args.repeats}: run each notebook at least once, e.g. --repeats 3")
+    if args.cells < 0:
+        ap.error(f"--cells {args.cells}: give the number of slowest cells to list, e.g. --cells 5")
     paths = args.notebooks or sorted(ROOT.glob("chapters/*.ipynb")) + sorted(ROOT.glob("solutions/*.ipynb"))
     for p in paths:
         if not p.is_file():
             ap.error(f"{p}: no such notebook; pass paths like chapters/01_realtime_basics.ipynb")
     times: dict[Path, list[float]] = {p: [] for p in paths}
     loads: dict[Path, list[float]] = {p: [] for p in paths}
+    cpu: dict[Path, list[float]] = {p: [] for p in paths}
+    cells: dict[Path, dict[int, list[float]]] = {p: {} for p in paths}
     failed: dict[Path, str] = {}
     cond = "loaded" if args.load else "quiet"
     for r in range(args.repeats):
@@ -84,26 +116,30 @@ def main(argv=None) -> int:
             before = os.getloadavg()[0]
             started = time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())
             try:
-                with load:
+                with load:   # the load's own processes are reaped after the CPU reading below
+                    cpu0 = children_cpu_s()
                     ran, seconds = execute(p, env={"ROBOCOURSE_TEST": "1"})
+                    cpu[p].append(children_cpu_s() - cpu0)
             except Exception as exc:  # a failing notebook is reported, the others still timed
                 failed[p] = f"{type(exc).__name__}: {str(exc).strip().splitlines()[-1] if str(exc).strip() else ''}"
                 continue
             after = os.getloadavg()[0]
             times[p].append(seconds)
             loads[p] += [before, after]
+            for i, sec in cell_seconds(ran).items():
+                cells[p].setdefault(i, []).append(sec)
             if args.claims is not None and r == args.repeats - 1:
                 write_claims(args.claims, p.stem, cond, ran, started=started, seconds=round(seconds, 1),
                              loadavg_before=round(before, 2), loadavg_after=round(after, 2),
                              cpu_load="CpuLoad(processes=2)" if args.load else "none")
                 nbformat.write(ran, args.claims / f"{p.stem}.{cond}.ipynb")
-            print(f"repeat {r + 1}/{args.repeats}: {_name(p)} {seconds:.1f} s "
+            print(f"repeat {r + 1}/{args.repeats}: {_name(p)} {seconds:.1f} s, CPU {cpu[p][-1]:.1f} s "
                   f"(load average {before:.2f} before, {after:.2f} after)", file=sys.stderr)
     width = max(len(_name(p)) for p in paths)
     how = "under load (two busy processes)" if args.load else "quiet (no CpuLoad of ours)"
     print(f"headless time in test mode, {how}, median [lowest-highest] of {args.repeats}; budget {BUDGET_S:.0f} s")
-    print(f"{'notebook':<{width}}  {'median s':>9}  {'range s':>13}  {'budget s':>8}  {'median/budget':>13}"
-          f"  {'load avg':>11}")
+    print(f"{'notebook':<{width}}  {'median s':>9}  {'range s':>13}  {'CPU s':>6}  {'budget s':>8}  "
+          f"{'median/budget':>13}  {'load avg':>11}")
     over = 0
     for p in paths:
         name = _name(p)
@@ -113,8 +149,14 @@ def main(argv=None) -> int:
         t = times[p]
         med = statistics.median(t)
         over += med > BUDGET_S
-        print(f"{name:<{width}}  {med:9.1f}  {min(t):6.1f}-{max(t):<6.1f}  {BUDGET_S:8.0f}  {med / BUDGET_S:12.2f}x"
+        print(f"{name:<{width}}  {med:9.1f}  {min(t):6.1f}-{max(t):<6.1f}  {statistics.median(cpu[p]):6.1f}  "
+              f"{BUDGET_S:8.0f}  {med / BUDGET_S:12.2f}x"
               f"  {min(loads[p]):5.2f}-{max(loads[p]):<5.2f}" + ("  OVER BUDGET" if med > BUDGET_S else ""))
+    for p in paths if args.cells else ():
+        if cells[p]:
+            slowest = sorted(cells[p].items(), key=lambda kv: -statistics.median(kv[1]))[:args.cells]
+            print(f"{_name(p)}: slowest cells (index: median s) "
+                  + ", ".join(f"{i}: {statistics.median(v):.1f}" for i, v in slowest))
     total = sum(statistics.median(t) for p, t in times.items() if t)
     print(f"total of medians: {total:.0f} s; {over} notebook(s) over budget; {len(failed)} failed "
           "(load avg: the machine's 1-minute load average before and after each run, lowest-highest)")

@@ -71,9 +71,9 @@ def main(argv=None) -> int:
         print(f"seed {k:2d}: reference {r.points:g}/{r.weight:g} ({r.seconds:.1f} s) | stalled {s.points:g}/{s.weight:g}"
               + ("" if r.passed else f"\n    reference failed: {r.message[:300]}"), flush=True)
     ref, bad = results["reference under CpuLoad"], results["stalled loop"]
-    lags = [float(x.message.split(" ms late")[0].split()[-1]) for x in ref if x.passed]
+    lags = [float(x.message.split(" ms late")[0].split()[-1]) for x in ref if x.passed]   # the arm behind its targets
     print(f"\nreference under CpuLoad({a.load_processes}): full marks {sum(x.passed for x in ref)}/{len(ref)}; "
-          f"lag median {statistics.median(lags) if lags else float('nan'):.0f} ms [{min(lags, default=0):.0f}-"
+          f"arm behind its targets: median {statistics.median(lags) if lags else float('nan'):.0f} ms [{min(lags, default=0):.0f}-"
           f"{max(lags, default=0):.0f}]")
     print(f"stalled loop: zero {sum(x.points == 0 for x in bad)}/{len(bad)}")
     return 0 if all(x.passed for x in ref) and all(x.points == 0 for x in bad) else 1

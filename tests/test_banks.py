@@ -41,11 +41,12 @@ def load_bank(path) -> list[Exercise]:
 BANKS = {p.stem: load_bank(p) for p in sorted(BANK_DIR.glob("*.py"))}
 # (bank, timed, check, answer): the exercises marked timing=True are graded in a run of their own, alone
 # (serial): a 500 Hz loop beside two other test workers on two cores is starved, and its verdict is then the
-# machine's, not the answer's
+# machine's, not the answer's. The others: each bank file is a unit of its own (xdist_group, tests/conftest.py),
+# so the banks' runs spread over the workers instead of queueing on one.
 ENTRIES = [(bank, ex.timing, ex.check, name) for bank, exercises in BANKS.items() for ex in exercises
            for name in ["reference", *(a.name for a in ex.right + ex.wrong)]]
 PARAMS = [pytest.param(bank, timed, check, answer, id=f"{check}/{answer}",
-                       marks=[pytest.mark.serial] if timed else [])
+                       marks=[pytest.mark.serial] if timed else [pytest.mark.xdist_group(f"tests/test_banks.py::{bank}")])
           for bank, timed, check, answer in ENTRIES]
 _VERDICTS: dict[tuple[str, bool], dict] = {}
 

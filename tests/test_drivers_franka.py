@@ -289,7 +289,9 @@ def _watched_box(monkeypatch, cap_ms=None):
     b.motion = franka_box._Motion(conn, 1, fw.CTRL_JOINT_IMPEDANCE, fw.GEN_JOINT_POSITION, franka_box._Track(q, 0.0),
                                   franka_box._Track(np.zeros(7), 0.0), franka_box._Track(np.zeros(7), 0.0))
     b._watch = seen = _SeenThread()
-    b.tick()                                   # the first state of the motion leaves
+    b.tick()                                   # the first state of the motion leaves (its modes switched) ...
+    b.tick()                                   # ... unanswered, as libfranka never answers it: not lost
+    assert b.counters["mode_switch_states"] == 1 and b.lost_in_row == 0
     return b, seen
 
 

@@ -24,11 +24,11 @@ import rtde_io  # noqa: E402
 from robocourse.drivers import rtde, start_ur_box  # noqa: E402
 from robocourse.drivers.ur_box import read_stats  # noqa: E402
 
-pytestmark = [pytest.mark.timeout(90), pytest.mark.slow]
 HOME = [0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0]
 
-# the box streams RTDE at 500 Hz and stops on a keepalive lapse: these run alone (tests/conftest.py)
-pytestmark = pytest.mark.serial
+# the box streams RTDE at 500 Hz and stops on a keepalive lapse: these run alone (tests/conftest.py); one
+# list, so the timeout and the slow mark are not lost to a second assignment
+pytestmark = [pytest.mark.timeout(90), pytest.mark.slow, pytest.mark.serial]
 
 
 @pytest.fixture(autouse=True)

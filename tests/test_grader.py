@@ -188,6 +188,9 @@ def test_csv_has_one_row_per_student_with_per_check_points(graded):
     assert "ch00.budget" in html and "check cell 7" in html and "RuntimeError: oops" in html
 
 
+# the tests below grade classes of their own (no module fixture): units of their own (tests/conftest.py), so
+# they spread over the workers instead of queueing behind the graded class above
+@pytest.mark.xdist_group("tests/test_grader.py::three_copies")
 def test_cli_grades_three_copies_in_parallel(tmp_path, root):
     nb = (root / SOLUTION).read_text()
     for student in ("ana", "ben", "cho"):
@@ -217,6 +220,7 @@ def hidden(inputs, outputs):
 """
 
 
+@pytest.mark.xdist_group("tests/test_grader.py::checks_dirs")
 def test_instructor_checks_from_a_directory(tmp_path, root):
     extra = tmp_path / "mychecks"
     extra.mkdir()
@@ -236,6 +240,7 @@ def test_instructor_checks_from_a_directory(tmp_path, root):
     assert list(g.results) == CHECKS and g.points == 5.0
 
 
+@pytest.mark.xdist_group("tests/test_grader.py::checks_dirs")
 def test_a_hidden_check_that_raises_is_the_instructors_problem(tmp_path, root):
     extra = tmp_path / "buggy"
     extra.mkdir()
@@ -254,6 +259,7 @@ def test_a_hidden_check_that_raises_is_the_instructors_problem(tmp_path, root):
     assert "CHECK ERROR (instructor)" in (tmp_path / "g.csv").read_text()
 
 
+@pytest.mark.xdist_group("tests/test_grader.py::checks_folder")
 def test_checks_folder_problems_are_one_clear_line(tmp_path, root):
     broken = tmp_path / "broken"
     broken.mkdir()

@@ -33,6 +33,10 @@ BWRAP = sandbox.bwrap_works()
 NO_BWRAP = "bubblewrap (bwrap) is missing or cannot create namespaces here; without the sandbox this attack " \
            "cannot be contained, so it is not run (verdict-integrity attacks still are)"
 needs_bwrap = pytest.mark.skipif(not BWRAP, reason=NO_BWRAP)
+# the run without the sandbox shares no fixture with the sandboxed one: a unit of its own (tests/conftest.py),
+# so the two graded classes run on different workers
+UNSANDBOXED = pytest.mark.xdist_group("tests/test_grading_hostile.py::unsandboxed")
+RUNS = ["hostile", pytest.param("unsandboxed", marks=UNSANDBOXED)]
 ASSIGNMENT = "00_setup_exercises"
 FULL = {"ch00.to_ns": 2.0, "ch00.budget": 1.0, "ch00.limits_conf": 2.0, "ch00.hidden_budget": 1.0}
 
@@ -388,7 +392,7 @@ def test_honest_students_grade_exactly_as_before(hostile):
 
 # -- verdict integrity (everywhere) -------------------------------------------------------------
 
-@pytest.mark.parametrize("run_name", ["hostile", "unsandboxed"])
+@pytest.mark.parametrize("run_name", RUNS)
 def test_forged_results_and_patched_checks_earn_nothing(run_name, request):
     run = request.getfixturevalue(run_name)
     for student in ("forger", "patcher"):
@@ -398,7 +402,7 @@ def test_forged_results_and_patched_checks_earn_nothing(run_name, request):
         assert "ch00.bonus" not in row  # an unknown check name is ignored
 
 
-@pytest.mark.parametrize("run_name", ["hostile", "unsandboxed"])
+@pytest.mark.parametrize("run_name", RUNS)
 def test_delegating_to_the_library_earns_nothing_for_that_check_only(run_name, request):
     run = request.getfixturevalue(run_name)
     got, row = points(run, "delegator")
@@ -407,6 +411,7 @@ def test_delegating_to_the_library_earns_nothing_for_that_check_only(run_name, r
     assert "write it yourself" in feedback and "parse_duration" in feedback
 
 
+@UNSANDBOXED
 def test_unsandboxed_rows_are_flagged_loudly(unsandboxed):
     assert all(r["sandboxed"] == "NO (not sandboxed)" for r in unsandboxed["rows"].values() if r["assignment"] != "?")
     assert "NOT SANDBOXED" in unsandboxed["stdout"]
@@ -497,6 +502,7 @@ def test_daemons_and_setsid_children_die_and_the_csv_stays(hostile):
 
 # -- nothing lost --------------------------------------------------------------------------------
 
+@pytest.mark.xdist_group("tests/test_grading_hostile.py::killed_grader")  # its own class: a unit of its own
 def test_a_killed_grader_loses_nothing_and_a_rerun_resumes(tmp_path):
     folder = tmp_path / "class"
     for student in ("ana", "ben", "cho"):

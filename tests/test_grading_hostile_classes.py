@@ -255,6 +255,7 @@ def test_symlinks_and_fifos_are_refused_with_a_note_never_read(run):
     assert "FIFO" in run["rows"]["fifo_student"]["status"]
 
 
+@pytest.mark.xdist_group("tests/test_grading_hostile_classes.py::rerun")  # its own class: a unit of its own
 def test_a_rerun_with_changed_options_grades_again_and_says_why(tmp_path):
     folder = tmp_path / "class"
     for student in ("ana", "ben"):

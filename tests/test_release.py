@@ -357,6 +357,7 @@ def test_glob_rules():
         rel.Rule("keep", "x", "")
 
 
+@pytest.mark.xdist_group("tests/test_release.py::cli")  # a release of its own: a unit of its own (tests/conftest.py)
 def test_cli_release_prints_the_summary_and_fails_cleanly(tmp_path):
     course = make_course(tmp_path / "course")
     cmd = [sys.executable, "-m", "robocourse.cli", "release", str(tmp_path / "student"), "--root", str(course)]

@@ -39,6 +39,35 @@ def test_cpu_load_pins_busy_processes_and_cleans_up():
         CpuLoad(cpu=4096)
 
 
+def test_cpu_load_left_on_another_thread_while_it_still_starts_ends_every_process(monkeypatch):
+    # chapter 1 switches the load on and off from two threads; on a loaded machine the "off" came
+    # while "on" was still starting its processes: the second was never killed, and "off" waited
+    # for it forever (the notebook hung). Leaving now waits for entering, then ends them all.
+    import subprocess
+    import threading
+
+    import robocourse.rt.disturb as disturb
+
+    started, real_popen = [], subprocess.Popen
+
+    def slow_popen(*args, **kwargs):     # a slow fork/exec, as on a machine at load average 25
+        time.sleep(0.3)
+        started.append(real_popen(*args, **kwargs))
+        return started[-1]
+
+    monkeypatch.setattr(disturb.subprocess, "Popen", slow_popen)
+    load = CpuLoad(processes=2)
+    on = threading.Thread(target=load.__enter__)
+    on.start()
+    time.sleep(0.1)                       # "off" arrives while the first process is still being started
+    off = threading.Thread(target=load.__exit__, args=(None, None, None))
+    off.start()
+    on.join(timeout=30)
+    off.join(timeout=30)
+    assert not on.is_alive() and not off.is_alive(), "leaving the load hung"
+    assert len(started) == 2 and all(p.poll() is not None for p in started) and load.pids == []
+
+
 def test_gc_pressure_survivors_reach_the_oldest_generation_and_pauses_are_recorded():
     pressure = GcPressure(live=1000, per_iteration=50, window=10)
     with GcPauses() as pauses:

@@ -66,7 +66,8 @@ def follow_path(rtde_c, rtde_r, path, duration):
         rtde_c.waitPeriod(t_cycle)
     rtde_c.servoStop()
     return True
-''', score=but(T), property="samples the path at the wall-clock time since the start", says="ms late"),
+''', score=but(T), property="samples the path at the wall-clock time since the start",
+               says="behind the clock"),
         Answer("a long lookahead_time", replace=[("0.002, 0.03, 300", "0.002, 0.2, 300")], score=but(T),
                property="lookahead_time 0.03 s (the arm keeps up with the path)", says="ms late"),
         Answer("a 100 Hz loop", code='''
@@ -82,7 +83,7 @@ def follow_path(rtde_c, rtde_r, path, duration):
         time.sleep(0.01)
     rtde_c.servoStop()
     return True
-''', score=but(P), property="one servoJ per 2 ms cycle", says="the 10th percentile"),
+''', score=but(P), property="one servoJ per 2 ms cycle", says="of its own"),
         Answer("servoJ's False ignored", replace=[("            return False                      # the robot stopped",
                                                    "            pass                              # the robot stopped")],
                score=but(S), property="returns False when the robot stopped", says="returned True"),

@@ -15,35 +15,45 @@ Mirrors upstream's split:
   between a non-real-time command source (chapter 6's policy) and the control loop.
 """
 
-from . import (
-    introspection,  # ``ros2 control`` verbs: robocourse.control.introspection.list_controllers(cm)
-)
-from .hardware.component import (
-    ActuatorInterface,
-    HardwareComponentInterface,
-    SensorInterface,
-    SystemInterface,
-)
-from .hardware.info import HardwareInfo, URDFError, parse_control_resources_from_urdf
-from .hardware.types import (
-    ACTIVE,
-    FINALIZED,
-    INACTIVE,
-    UNCONFIGURED,
-    UNKNOWN,
-    CallbackReturn,
-    State,
-    return_type,
-)
-from .manager.controller_interface import (
-    ChainableControllerInterface,
-    ControllerInterface,
-    InterfaceConfiguration,
-    interface_configuration_type,
-)
-from .manager.controller_manager import BEST_EFFORT, STRICT, ControllerManager
-from .manager.resource_manager import ResourceError, ResourceManager
+from __future__ import annotations
+
+import importlib
+
 from .pluginlib import plugin, register
+
+#: the package's names, imported on first use (PEP 562): a process that needs one corner of it
+#: (a box process importing ``robocourse.drivers``, which declares its plugins with ``pluginlib``)
+#: does not pay for the manager, the bus and the messages (about a second of start-up)
+_LAZY = {
+    **dict.fromkeys(("ActuatorInterface", "HardwareComponentInterface", "SensorInterface", "SystemInterface"),
+                    ".hardware.component"),
+    **dict.fromkeys(("HardwareInfo", "URDFError", "parse_control_resources_from_urdf"), ".hardware.info"),
+    **dict.fromkeys(("ACTIVE", "FINALIZED", "INACTIVE", "UNCONFIGURED", "UNKNOWN", "CallbackReturn", "State",
+                     "return_type"), ".hardware.types"),
+    **dict.fromkeys(("ChainableControllerInterface", "ControllerInterface", "InterfaceConfiguration",
+                     "interface_configuration_type"), ".manager.controller_interface"),
+    **dict.fromkeys(("BEST_EFFORT", "STRICT", "ControllerManager"), ".manager.controller_manager"),
+    **dict.fromkeys(("ResourceError", "ResourceManager"), ".manager.resource_manager"),
+}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name], __name__), name)
+    else:
+        try:     # a submodule: ``robocourse.control.introspection`` (``ros2 control`` verbs)
+            value = importlib.import_module(f"{__name__}.{name}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__name__}.{name}":
+                raise
+            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted({*globals(), *_LAZY})
+
 
 __all__ = [
     "ACTIVE", "BEST_EFFORT", "FINALIZED", "INACTIVE", "STRICT", "UNCONFIGURED", "UNKNOWN",

@@ -35,9 +35,17 @@ from . import franka_wire as fw
 from .franka_probes import PAUSE_MS, PAUSES, SECONDS, STALL_MS, franka_loop_probe
 
 
+PAUSE_GAP_S = 0.05      # s of robot time at least between two pauses (each moves the robot's clock by up to 14 ms)
+
+
 def _inputs(rng):
     amplitude = [round(float(a), 3) for a in rng.uniform(0.05, 0.15, 7) * rng.choice([-1, 1], 7)]
-    times = sorted(round(float(t), 3) for t in rng.uniform(0.2, SECONDS - 0.2, PAUSES))
+    # one pause in each of PAUSES equal slots of 0.2 .. SECONDS - 0.2 s, PAUSE_GAP_S from the slot's edges: two
+    # pauses in consecutive cycles add up (the command between them answers a state already lost), and
+    # 0.311 s / 0.313 s once made one 21-cycle silence out of two pauses below the limit
+    width = (SECONDS - 0.4) / PAUSES
+    times = [round(0.2 + k * width + float(rng.uniform(PAUSE_GAP_S / 2, width - PAUSE_GAP_S / 2)), 3)
+             for k in range(PAUSES)]
     return {"seconds": SECONDS, "amplitude": amplitude,
             "pauses": [[t, int(rng.integers(PAUSE_MS[0], PAUSE_MS[1] + 1))] for t in times],
             "stall_at": round(float(rng.uniform(0.1, 0.3)), 3), "stall_ms": STALL_MS}

@@ -18,7 +18,9 @@ waits for a response (pitfall C8), so a server thread inside the client's proces
   (20) lost in a row: the communication_constraints_violation reflex, the brakes close, the
   client's Move ends with ReflexAborted, and only AutomaticErrorRecovery clears it.
 - ``control_command_success_rate``: the share of the last 100 states sent during the motion that
-  got their command in time (0 when no motion runs). A tick the box itself could not keep (its
+  got their command in time (0 when no motion runs). The motion's first state, the one whose
+  modes switched, is not expected to be answered: libfranka's startMotion reads it and sends
+  nothing, and the first readOnce() waits for the next state (``mode_switch_states``). A tick the box itself could not keep (its
   process was descheduled: ``box_ticks_skipped``) sends no state and is not counted against the
   client; nor is it made up, and a tick that runs late re-phases the schedule so the client
   always has a whole millisecond to answer (``box_late_ticks``): the simulated robot's clock (``message_id``, ms) and its physics
@@ -273,6 +275,9 @@ class FrankaBox(TickingBox):
         self.max_lost_in_row = 0
         self._buf = bytearray(65536)
         self._last_state_moving = False       # was the newest state sent during a motion?
+        self._mode_switch_state = False       # ... and the motion's first (no libfranka client answers it)?
+        for k in ("cycles_moving", "commands_ok", "lost", "late", "reflexes", "motions", "motions_finished"):
+            self.counters[k] = 0               # in every stats answer, 0 included
         self._last_command_ns = time.monotonic_ns()   # when the last command of the motion came
         self._sent_ns = np.zeros(_RING, dtype=np.int64)
         self.rtt_ns = np.zeros(_RING, dtype=np.int64)
@@ -698,7 +703,14 @@ class FrankaBox(TickingBox):
 
     def tick(self) -> None:
         c = self.counters
-        if self.motion is not None and self._last_state_moving:   # a state of this motion awaits its command
+        switch, self._mode_switch_state = self._mode_switch_state, False
+        if switch and self.motion is not None and self.pending is None:
+            # the motion's first state (its modes switched) is read by libfranka's startMotion, which
+            # sends nothing; every client's first readOnce() then waits for the next one. No client
+            # answers it, so it is neither lost nor in time: the robot holds
+            c["mode_switch_states"] += 1
+            self._extrapolate(self.message_id)
+        elif self.motion is not None and self._last_state_moving:   # a state of this motion awaits its command
             c["cycles_moving"] += 1
             cmd, self.pending = self.pending, None
             if cmd is not None:
@@ -756,6 +768,7 @@ class FrankaBox(TickingBox):
         self.message_id += 1
         self._pack_state()
         out = self._values.tobytes()
+        self._mode_switch_state = self.motion is not None and not self._last_state_moving
         self._last_state_moving = self.motion is not None
         if self._watch is not None and self.motion is not None:
             self._watch.mark()                 # the client's CPU time and wait as this state leaves

@@ -72,7 +72,7 @@ HEADER = (f"{'run':<34} {'p50 us':>8} {'p99 us':>8} {'max us':>9} {'success':>9}
 
 
 def franka_roundtrip(seconds: float = 2.0, *, physics: bool = True, realtime: bool = False,
-                     work=None, label: str | None = None, priority: int = 80) -> RoundTrip:
+                     work=None, label: str | None = None, priority: int = 80, around=None) -> RoundTrip:
     """Run a fresh Franka box and a pylibfranka joint position loop (read the state, call
     ``work()`` if given, command the start position) for ``seconds``; return what the box counted.
 
@@ -83,6 +83,10 @@ def franka_roundtrip(seconds: float = 2.0, *, physics: bool = True, realtime: bo
     controller, always asks for them (``start_franka_box``'s default). The box allows any number
     of lost cycles here (no reflex) so the whole run is measured; ``max_lost_in_row`` tells
     whether the robot's limit (20) would have stopped it.
+
+    ``around``: a context manager entered for the client's loop only, once the box is up and the
+    client connected (e.g. ``CpuLoad(processes=2)``): a disturbance of the loop, not of the box's
+    start-up.
     """
     import pylibfranka
 
@@ -103,21 +107,22 @@ def franka_roundtrip(seconds: float = 2.0, *, physics: bool = True, realtime: bo
         with ctx as reports:
             if realtime:
                 applied = ", ".join(f"{r.name} {'ok' if r.ok else 'refused'}" for r in reports)
-            control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
-            cmd = pylibfranka.JointPositions(q0)
-            cycles, first, end = 0, None, time.monotonic() + seconds
-            while True:
-                control.readOnce()
-                now = time.monotonic()
-                first = first or now
-                if work is not None:
-                    work()
-                cmd.motion_finished = now >= end
-                control.writeOnce(cmd)
-                cycles += 1
-                if cmd.motion_finished:
-                    break
-            wall = now - first
+            with around if around is not None else contextlib.nullcontext():
+                control = robot.start_joint_position_control(pylibfranka.ControllerMode.JointImpedance)
+                cmd = pylibfranka.JointPositions(q0)
+                cycles, first, end = 0, None, time.monotonic() + seconds
+                while True:
+                    control.readOnce()
+                    now = time.monotonic()
+                    first = first or now
+                    if work is not None:
+                        work()
+                    cmd.motion_finished = now >= end
+                    control.writeOnce(cmd)
+                    cycles += 1
+                    if cmd.motion_finished:
+                        break
+                wall = now - first
         del control
         time.sleep(0.01)
         s = box_stats(box)

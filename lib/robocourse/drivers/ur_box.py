@@ -99,10 +99,12 @@ class URBox(TickingBox):
         self.owner: dict[str, int] = {}          # input variable -> connection id
         self._next_id = 1
         self.tick_count = 0
-        # the last TRACE_S of (CLOCK_MONOTONIC time, actual_q, target_q, runtime_state): `robocourse trace`
+        # the last TRACE_S of (CLOCK_MONOTONIC time, actual_q, target_q, runtime_state, the servoj target last
+        # received and its (t, lookahead_time), zeros outside servo mode): `robocourse trace`
         n = int(TRACE_S * CONTROL_HZ)
         self.trace_t, self.trace_q = np.full(n, np.nan), np.zeros((n, 6))
         self.trace_target, self.trace_state = np.zeros((n, 6)), np.zeros(n, dtype=np.int8)
+        self.trace_sent, self.trace_servo = np.zeros((n, 6)), np.zeros((n, 2))
 
     def sockets(self) -> list:
         return [*self.listeners.values(), *self.conns]
@@ -328,6 +330,13 @@ class URBox(TickingBox):
         self.trace_q[i] = ctrl.arm.q
         self.trace_target[i] = ctrl.motion.q
         self.trace_state[i] = ctrl.runtime_state
+        m = ctrl.motion
+        if m.mode == "servo":
+            self.trace_sent[i] = m.target
+            self.trace_servo[i] = (m.servo_t, m.lookahead)
+        else:
+            self.trace_sent[i] = 0.0
+            self.trace_servo[i] = 0.0
         self.tick_count += 1
         msgs = ctrl.messages
         if msgs:
@@ -345,11 +354,13 @@ class URBox(TickingBox):
 
     def trace(self) -> dict:
         """The kept trajectory in time order: t (CLOCK_MONOTONIC s, comparable with the clients' time.monotonic()
-        on this machine), actual q, target q (rad), runtime_state per tick."""
+        on this machine), actual q, target q (rad), runtime_state per tick; in servo mode also the servoj
+        target last received (``sent``, rad) and its ``servo`` (t, lookahead_time) s (zeros otherwise)."""
         order = np.argsort(self.trace_t)
         keep = order[np.isfinite(self.trace_t[order])]
         return {"t": self.trace_t[keep].tolist(), "q": self.trace_q[keep].tolist(),
-                "target": self.trace_target[keep].tolist(), "runtime_state": self.trace_state[keep].tolist()}
+                "target": self.trace_target[keep].tolist(), "runtime_state": self.trace_state[keep].tolist(),
+                "sent": self.trace_sent[keep].tolist(), "servo": self.trace_servo[keep].tolist()}
 
     def stats(self) -> dict:
         rtde_conns = [c for c in self.conns.values() if c.kind == "rtde"]

@@ -32,6 +32,7 @@ controllers: the same two explicit steps as every driver in the course.
 
 from __future__ import annotations
 
+import sys
 import time as _time
 
 from robocourse.control.hardware.types import CallbackReturn, return_type
@@ -124,14 +125,22 @@ class URStyleSystem(_BoxSystem):
             d.disconnect()
 
     def _disconnect(self) -> None:
+        """Close both ur_rtde clients. Each ``disconnect()`` ends with a fixed 500 ms sleep (ur_rtde's
+        "wait until everything has disconnected"), and each client's destructor calls ``disconnect()``
+        again, sleep included: an explicit ``disconnect()`` then the destructor cost a second per
+        client. When this component holds the last reference, dropping it is the one disconnect;
+        a client someone else still holds is disconnected explicitly."""
         for name in ("rtde_c", "rtde_r"):
             client = getattr(self, name)
-            if client is not None:
-                try:
+            setattr(self, name, None)
+            if client is None:
+                continue
+            try:
+                if sys.getrefcount(client) > 2:     # this frame and getrefcount's argument: anyone else?
                     client.disconnect()
-                except RuntimeError:
-                    pass
-                setattr(self, name, None)
+            except RuntimeError:
+                pass
+            del client                              # the last reference: the destructor disconnects here
 
     def _stop_motion(self) -> None:
         c = self.rtde_c

@@ -515,26 +515,36 @@ def _before_stall(d: _Deployment) -> list:
     return tgts[: int(np.argmax(gaps)) + 1]
 
 
+STALL_ALLOWANCE_S = 0.03    # a brain may run this much slower per step than decimation asks (the machine's)
+
+
 def _deploy_decimation(inputs, out):
-    # judged on the states the targets came from (ticks apart), not on the wall clock, and on the median
-    # step: a busy machine makes a brain late, and a brain on absolute deadlines then catches up with a
-    # short step or two; neither is the student's doing
-    # only the steps before the stall: after it a brain on absolute deadlines catches up with many short steps
-    # (measured on a loaded machine: 20 steps of 1-3 ticks for decimation 4)
+    # judged on the states the targets came from (ticks apart), not on the wall clock, and by the mean step
+    # over the run before the stall (first to last target): a busy machine makes a brain late (a long step)
+    # and a brain on absolute deadlines then catches up (short steps), so single steps, their median or
+    # their quantiles swing with the load; the mean stays at the decimation for any correct brain. Up to
+    # STALL_ALLOWANCE_S more per step is the machine's; a brain on every tick is far below, one that skips
+    # every other window far above. Only the steps before the stall: after it a brain on absolute deadlines
+    # catches up with many short steps (measured on a loaded machine: 20 steps of 1-3 ticks for decimation 4)
     d = _deployment(inputs, out)
     tgts = _before_stall(d)
     if len(tgts) < 5:
         raise CheckFailed(f"only {len(tgts)} targets reached the robot before the brain stalled; the policy should "
                           f"run every {d.dec} ticks")
-    steps = np.diff([k - age for _, k, age in tgts])
-    median, quarter = float(np.median(steps)), float(np.percentile(steps, 25))
-    if median < d.dec - 1:
-        raise CheckFailed(f"the targets came from states {median:g} ticks apart (median; steps {steps[:8].tolist()} ...): "
-                          f"decimation {d.dec} asks for one policy step every {d.dec} ticks")
-    if quarter > 2 * d.dec:
-        raise CheckFailed(f"the targets came from states {median:g} ticks apart (median; a quarter of the steps "
-                          f"{quarter:g} or more): decimation {d.dec} asks for one policy step every {d.dec} ticks")
-    return f"one policy step every {int(np.median(steps))} ticks (median) for decimation {d.dec}"
+    ks = [k - age for _, k, age in tgts]
+    steps = np.diff(ks)
+    mean = (ks[-1] - ks[0]) / (len(ks) - 1)
+    allowance = int(np.ceil(STALL_ALLOWANCE_S * d.rate - 1e-9))
+    if mean < d.dec - 1:
+        raise CheckFailed(f"the targets came from states {mean:.1f} ticks apart (mean over {len(steps)} steps; steps "
+                          f"{steps[:8].tolist()} ...): decimation {d.dec} asks for one policy step every {d.dec} ticks")
+    if mean > d.dec + allowance:
+        raise CheckFailed(f"the targets came from states {mean:.1f} ticks apart (mean over {len(steps)} steps; steps "
+                          f"{steps[:8].tolist()} ...): decimation {d.dec} asks for one policy step every {d.dec} ticks "
+                          f"(a machine that delays the brain is allowed {allowance} ticks, "
+                          f"{STALL_ALLOWANCE_S * 1e3:.0f} ms, per step)")
+    return (f"one policy step every {mean:.2f} ticks (mean over {len(steps)} steps before the stall) for decimation "
+            f"{d.dec}")
 
 
 def _deploy_latest(inputs, out):

@@ -16,6 +16,7 @@ import mmap
 import os
 import subprocess
 import sys
+import threading
 import time
 
 # A child inherits its parent's scheduling policy: started from a SCHED_FIFO process (rttest with
@@ -40,6 +41,9 @@ class CpuLoad:
 
     They run under SCHED_OTHER: a SCHED_OTHER loop on the same core must share the CPU with
     them (the scheduler's fair share shows up as latency); a SCHED_FIFO loop preempts them.
+    Entering and leaving may happen on two threads (chapter 1 switches the load on and off from
+    threads so the measured loop never waits): leaving waits until entering has started every
+    process, then ends them all, so none is left spinning and no one waits on a process nobody ended.
     """
 
     def __init__(self, cpu: int | None = None, processes: int = 1):
@@ -54,20 +58,23 @@ class CpuLoad:
         self.cpu = cpu
         self.processes = processes
         self._procs: list[subprocess.Popen] = []
+        self._lock = threading.Lock()
 
     def __enter__(self):
-        for _ in range(self.processes):
-            self._procs.append(subprocess.Popen([sys.executable, "-c", _BUSY, str(os.getpid()), str(self.cpu)],
-                                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL))
+        with self._lock:
+            for _ in range(self.processes):
+                self._procs.append(subprocess.Popen([sys.executable, "-c", _BUSY, str(os.getpid()), str(self.cpu)],
+                                                    stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL))
         time.sleep(0.05)  # let them start spinning before the measurement does
         return self
 
     def __exit__(self, *exc):
-        for p in self._procs:
+        with self._lock:      # an __enter__ still starting processes on another thread finishes first
+            procs, self._procs = self._procs, []
+        for p in procs:
             p.kill()
-        for p in self._procs:
+        for p in procs:
             p.wait()
-        self._procs.clear()
         return False
 
     @property
