@@ -529,10 +529,10 @@ def test_a_killed_box_makes_read_once_raise_network_exception_within_its_timeout
     robot = pylibfranka.Robot(box.host, IGNORE)
     robot.read_once()
     box.kill()
-    t0 = time.monotonic()
+    # the message says libfranka's receive timeout fired (not another error); a hang would end at this
+    # module's pytest timeout. No wall-clock bound here: a loaded machine stretches it (issue 31)
     with pytest.raises(pylibfranka.NetworkException, match="UDP receive: Timeout"):
         robot.read_once()
-    assert time.monotonic() - t0 < 5.0
     box.stop()
 
 
