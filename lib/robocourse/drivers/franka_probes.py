@@ -127,8 +127,15 @@ def _warm_up(robot, pylibfranka) -> None:
     del control
 
 
-def _state(robot) -> dict:
-    s = robot.read_once()
+def _state(robot, clock=None) -> dict:
+    """The robot's state, from a state the robot sent after ``clock()`` (its message_id now): a
+    state still queued from before (a starved box had sent none since the student's
+    automatic_error_recovery()) showed a recovered robot in Reflex once."""
+    since = clock() if clock is not None else None
+    for _ in range(1000):                        # read_once waits for a newer state each time: bounded
+        s = robot.read_once()
+        if since is None or round(s.time.to_sec() * 1000) > since:
+            break
     return {"q": [float(x) for x in s.q], "mode": s.robot_mode.name, "errors": str(s.current_errors)}
 
 
@@ -193,7 +200,7 @@ def franka_loop_probe(inputs, run_motion):
             offset = _offset(inputs["amplitude"], inputs["seconds"], inputs["pauses"], ts, quick)
             result = _call(run_motion, robot, offset, inputs["seconds"])
             stats = box_stats(box)
-            out["a"] = {**result, "q0": before["q"], "after": _state(robot), "ts": ts, "attempts": attempt,
+            out["a"] = {**result, "q0": before["q"], "after": _state(robot, patient), "ts": ts, "attempts": attempt,
                         "stats": {k: (stats.get(k, 0) - base.get(k, 0)) if k in _COUNTS else stats.get(k, 0)
                                   for k in _STATS}}
             # retried only where the machine, not the loop, may have tripped it: the box could not
@@ -214,7 +221,7 @@ def franka_loop_probe(inputs, run_motion):
                         min_states=25, max_ms=500.0)
         result = _call(run_motion, robot, stall, 1.0)
         stats_b = box_stats(box)
-        out["b"] = {**result, "after": _state(robot), "last_reflex": stats_b.get("last_reflex", ""),
+        out["b"] = {**result, "after": _state(robot, patient), "last_reflex": stats_b.get("last_reflex", ""),
                     "reflexes": int(stats_b.get("reflexes", 0)) - int(base_b.get("reflexes", 0))}
     except NotImplementedError:
         raise
