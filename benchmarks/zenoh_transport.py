@@ -142,9 +142,54 @@ message is what stays put, so the comparisons below are of CPU):
   callback only checks the attachment and queues the payload): no less CPU (8.7 vs 7.8 us here,
   8-9 vs 7-8 us echo, alternating runs), reverted.
 
-Reaching 0.7x would need the per-message Python work under ~2 us per process: a compiled
-codec and hand-off, not a change of semantics. The value copy per subscription, the attachment
-per sample and the sequence numbers are untouched by all of the above.
+Second round (issue 31, 2026-11-27 14:30-15:25 UTC; the shared 2-core machine at load average
+17-27 throughout, so msgs/s swing 3-10x between repeats and only CPU per message and
+alternating A/B runs compare; "before" is main at 1c90f25's parent, "after" this file's code):
+
+- Kept: the executor's per-callback overhead, warm, 1.18 -> 0.85 us (``--budget``'s piece
+  table; no time-base lookups when nothing bounds the wait, no timer scan without timers, one
+  call layer less). Five alternating flood pairs (30,000 messages, small) gave CPU per message
+  10.4 -> 9.2 us (publisher process) and 10.0 -> 8.7 us (echo); the ``--throughput`` runs
+  (2 x 5 repeats each) could not separate before from after within the load's noise (echo 8.5-12.5
+  us either way).
+- Measured and not kept: subscriber-side batching (the subscriber declared with zenoh's
+  ``FifoChannel(256)`` and one thread per subscription that blocks in ``recv()`` and then drains
+  every queued sample with ``try_recv()``, one executor wake-up per burst): no CPU gain over
+  zenoh-python's own callback thread (echo 9.3 vs 8.7 us per message, publisher 9.1 vs 9.2,
+  five alternating pairs), and p50 round trips unchanged (9 pairs). In a flood the echo's
+  executor never sleeps (counted: 0-20 sleeps per second at 8,000-39,000 messages per second),
+  so there are no wake-ups left to batch away.
+- p50 round trip (4 alternating before/after pairs of 9 interleaved repeats, robocourse and
+  raw in the same run): robocourse's own p50 before 218-272 us (small) / 229-371 us (1 kB),
+  after 210-243 / 247-344 us; the ratio to raw, before 1.59-2.18x / 1.71-2.92x, after
+  1.50-2.27x / 1.89-3.43x, moves with raw's own p50, which jumps between ~100 and ~170 us from
+  run to run at this load. No regression shows; the quiet-machine 1.57x could not be
+  re-measured today.
+
+Where the echo's time goes in a flood (``--throughput``, after; us per message by thread,
+medians of 2 x 5 repeats; raw zenoh beside it):
+
+    payload  thread                                   robocourse   raw zenoh
+    small    main (executor: take, callback, publish,    4.0-4.5      0.0 (idle)
+             encode, attachment, put)
+    small    zenoh-python callback thread (robocourse:   2.5          1.0-1.5 (callback + put)
+             attachment check, decode, queue)
+    small    zenoh's own threads (rx, tx, net)           1.5-2.5      0.5-1.0
+    1 kB     main / callback thread / zenoh              5.0-5.5 / 3.0 / 2.5-3.0   0 / 1.0-1.5 / 1.5-2.0
+
+and the pieces alone, warm, in one thread (``--budget``, after, small / 1 kB, us per call):
+sample callback 1.31 / 1.69 (rosbags decode 0.95 / 1.30, of which our constructor's field
+checks ~0.06 over a bare class), executor take + run 0.85, publish -> put call 1.35 / 1.52
+(rosbags encode 0.74 / 0.95; the put call with attachment ~0.6 of zenoh-python alone), sum
+3.5 / 4.1 us. In the flood each piece costs about twice its warm time (two Python threads
+sharing the GIL and the caches). Raw zenoh's whole echo is 2-3 us per message.
+
+Why 0.7x is out of reach here: when the flood is CPU-bound, throughput follows CPU per message,
+so 0.7x needs robocourse's echo within ~1.4x raw's, about 3-4 us per message in all. Its
+Python pieces alone take 3.5 us warm (the codec 1.7 of it), before zenoh's own ~3 us that raw
+pays too. Reaching it would take a compiled codec and hand-off (not allowed: rosbags stays on
+the hot path, issue 18; no C extension of our own), or dropping a semantic (value copies,
+per-sample attachment, callbacks on the spinning thread), which the issue forbids.
 
 Stages (``--stages [--n 2000]``): one robocourse ping-pong with timing probes in both
 processes (``perf_counter_ns``, CLOCK_MONOTONIC, so stamps compare across processes on one
@@ -640,7 +685,7 @@ def budget(n):
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(node)
     zt = transport.ZenohTransport.__new__(transport.ZenohTransport)   # no session: hooks only
-    zt.dropped_no_attachment = zt.dropped_undecodable = zt.receive_errors = 0
+    zt.dropped_no_attachment = zt.dropped_undecodable = 0
     on_sample = zt._on_sample(sub)
     loc = transport._Local("budget", None, "budget", _Put())
     loc.t = String
@@ -722,7 +767,7 @@ def _pieces(n, sample_type):
     pub = node.create_publisher(String, "/pong", qos)
     sub = node.create_subscription(String, "/ping", pub.publish, qos)
     zt = transport.ZenohTransport.__new__(transport.ZenohTransport)   # no session: hooks only
-    zt.dropped_no_attachment = zt.dropped_undecodable = zt.receive_errors = 0
+    zt.dropped_no_attachment = zt.dropped_undecodable = 0
     on_sample = zt._on_sample(sub)
     loc = transport._Local("pieces", None, "pieces", _Put())
     loc.t = String
@@ -854,9 +899,9 @@ THREAD_GROUPS = ("main thread", "other Python threads", "zenoh's own threads")
 def _thread_cpu(pid):
     """CPU seconds so far of process ``pid``'s threads, by :data:`THREAD_GROUPS`: the main
     thread (robocourse: the executor, so callbacks, publish, encode and ``put``; raw zenoh: idle),
-    the other threads named like the process (robocourse: each subscription's receive thread,
-    attachment check and decode; raw zenoh: zenoh-python's callback thread, callback and
-    ``put``), and zenoh's runtime threads (``rx-*``, ``tx-*``, ``net-*``...: sockets, routing,
+    the other threads named like the process (zenoh-python's callback threads; robocourse: the
+    sample callback, attachment check and decode; raw zenoh: the echo callback and ``put``), and
+    zenoh's runtime threads (``rx-*``, ``tx-*``, ``net-*``...: sockets, routing,
     batching)."""
     tick = os.sysconf("SC_CLK_TCK")
     with open(f"/proc/{pid}/comm") as fh:

@@ -263,9 +263,10 @@ class _SeenThread:
         self.recorded_ms = self.unknown_ms = self.ran_ms = self.last_ms = 0.0
         self.runnable = False
 
-    def mark(self): pass
+    def mark(self):
+        return (0, 0)
 
-    def restart(self): pass
+    def restart(self, base, base_ns): pass
 
     def waited_ms(self):
         self.last_ms = self.recorded_ms
@@ -277,20 +278,39 @@ class _SeenThread:
     def close(self): pass
 
 
+class _Clock:
+    """The box's monotonic clock, moved by the test: one tick per millisecond, whatever this machine does."""
+
+    def __init__(self):
+        self.ns = 10 ** 9
+
+    def monotonic_ns(self):
+        return self.ns
+
+
+def _tick(b, n=1, ms=1):
+    for _ in range(n):
+        b.clock.ns += ms * 1_000_000
+        b.tick()
+
+
 def _watched_box(monkeypatch, cap_ms=None):
-    """A box in this process (no physics, no client), a motion running, its client thread faked."""
+    """A box in this process (no physics, no client), a motion running, its client thread and its clock faked."""
     from robocourse.drivers import franka_box
 
     if cap_ms is not None:
         monkeypatch.setattr(franka_box, "MACHINE_CAP_MS", cap_ms)
+    clock = _Clock()
+    monkeypatch.setattr(franka_box, "time", clock)
     b = franka_box.FrankaBox(physics=False)
+    b.clock = clock
     conn = franka_box._Conn(sock=None, peer=("127.0.0.1", 0))
     q = b.arm.q.copy()
     b.motion = franka_box._Motion(conn, 1, fw.CTRL_JOINT_IMPEDANCE, fw.GEN_JOINT_POSITION, franka_box._Track(q, 0.0),
                                   franka_box._Track(np.zeros(7), 0.0), franka_box._Track(np.zeros(7), 0.0))
     b._watch = seen = _SeenThread()
-    b.tick()                                   # the first state of the motion leaves (its modes switched) ...
-    b.tick()                                   # ... unanswered, as libfranka never answers it: not lost
+    _tick(b)                                   # the first state of the motion leaves (its modes switched) ...
+    _tick(b)                                   # ... unanswered, as libfranka never answers it: not lost
     assert b.counters["mode_switch_states"] == 1 and b.lost_in_row == 0
     return b, seen
 
@@ -307,20 +327,19 @@ def test_a_runnable_client_is_not_blamed_for_a_wait_the_kernel_has_not_recorded_
     b, seen = _watched_box(monkeypatch)
     try:
         seen.runnable, seen.unknown_ms = True, 40.0        # woken, not run yet: 40 ms it cannot see
-        for _ in range(30):
-            b.tick()
+        _tick(b, 30)
         assert b.motion is not None and b.counters["reflexes"] == 0
         assert b.counters["verdicts_deferred"] >= 10 and b.lost_in_row == 30
         seen.runnable, seen.unknown_ms, seen.recorded_ms = False, 0.0, 29.0   # it ran: 29 ms were waits
-        b.tick()                                            # 31 lost, 2 of them its own: the motion goes on
+        _tick(b)                                            # 31 ms silent, 2 of them its own: the motion goes on
         assert b.counters["reflexes"] == 0 and b.max_own_lost_in_row < 20
     finally:
         _close(b)
 
 
 @pytest.mark.parametrize("runnable, unknown_ms, cap_ms, lost, machine", [
-    (False, 0.0, None, 20, 0),      # asleep (its own sleep): the robot's 20, at once
-    (True, 3.0, None, 23, 0),       # runnable, but 3 unseen ms cannot excuse 23 lost: its own
+    (False, 0.0, None, 20, 0),      # asleep (its own sleep): 20 ms, the robot's 20 cycles, at once
+    (True, 3.0, None, 23, 0),       # runnable, but 3 unseen ms cannot excuse 23 ms: 20 its own
     (True, 1000.0, 0, 20, 1),       # held off the CPU past the box's cap: a reflex, the machine's
 ], ids=["asleep", "runnable-over-the-limit-anyway", "past-the-cap"])
 def test_a_watched_client_trips_when_it_is_over_the_limit_whatever_it_could_not_see(monkeypatch, runnable, unknown_ms,
@@ -328,13 +347,54 @@ def test_a_watched_client_trips_when_it_is_over_the_limit_whatever_it_could_not_
     b, seen = _watched_box(monkeypatch, cap_ms)
     try:
         seen.runnable, seen.unknown_ms = runnable, unknown_ms
-        for _ in range(lost - 1):
-            b.tick()
+        _tick(b, lost - 1)
         assert b.counters["reflexes"] == 0
-        b.tick()
+        _tick(b)
         assert b.counters["reflexes"] == 1 and b.counters["reflexes_machine"] == machine
         assert f"{lost} lost in a row" in b.last_reflex
     finally:
+        _close(b)
+
+
+def test_a_busy_client_on_a_starved_box_is_judged_by_its_own_milliseconds_not_the_box_s_ticks(monkeypatch):
+    """A 30 ms computation in the loop on a loaded machine: the box, starved too, ticks every 2 ms and
+    the client waits a quarter of the time for a CPU. Lost ticks minus waits (k - k/2) would not
+    reach 20 before 40 ticks (a busy answer passed 2 of 3 loaded bank runs that way); its own
+    milliseconds (2k - k/2) do at 14."""
+    b, seen = _watched_box(monkeypatch)
+    try:
+        seen.runnable = True                               # running its computation (unseen: under a ms)
+        seen.unknown_ms = 0.5
+        for k in range(1, 21):
+            seen.recorded_ms = k / 2                       # silent 2k ms, a quarter of it waiting for a CPU
+            _tick(b, ms=2)
+            if b.counters["reflexes"]:
+                break
+        assert b.counters["reflexes"] == 1 and b.counters["reflexes_machine"] == 0
+        assert b.lost_in_row == 14 and b.max_own_lost_in_row >= 20       # 14 ticks, 21 ms its own
+    finally:
+        _close(b)
+
+
+def test_a_late_answer_restarts_a_watched_client_s_silence_from_the_next_state(monkeypatch):
+    """A command for the state before the newest (late: the box, held off the CPU mid-tick, counted
+    it lost) shows the client has caught up: from then on it waits for the box's next state, which
+    is not its silence. The robot's own count of lost cycles goes on (``lost_in_row``)."""
+    b, seen = _watched_box(monkeypatch)
+    client = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        client.bind((b.host, 0))
+        b.motion.conn.udp = client.getsockname()
+        _tick(b, 15)                                        # asleep 15 ms: its own
+        late = b.message_id - 1
+        client.sendto(late.to_bytes(8, "little") + bytes(fw.COMMAND.size - 8), (b.host, b.udp_port))
+        assert wait_for(lambda: (b._drain_udp(), b.counters["late"])[1] == 1, 2.0)
+        _tick(b, 9)                                         # 24 lost in a row, 9 ms since the newest state left
+        assert b.counters["reflexes"] == 0 and b.lost_in_row == 24
+        _tick(b, 11)                                        # 20 ms since then: its own again
+        assert b.counters["reflexes"] == 1
+    finally:
+        client.close()
         _close(b)
 
 
@@ -469,10 +529,10 @@ def test_a_killed_box_makes_read_once_raise_network_exception_within_its_timeout
     robot = pylibfranka.Robot(box.host, IGNORE)
     robot.read_once()
     box.kill()
-    t0 = time.monotonic()
+    # the message says libfranka's receive timeout fired (not another error); a hang would end at this
+    # module's pytest timeout. No wall-clock bound here: a loaded machine stretches it (issue 31)
     with pytest.raises(pylibfranka.NetworkException, match="UDP receive: Timeout"):
         robot.read_once()
-    assert time.monotonic() - t0 < 5.0
     box.stop()
 
 

@@ -181,7 +181,10 @@ def points(run, student):
 
 def test_the_run_finishes_bounded_and_honest_neighbours_score_as_alone(run):
     assert run["proc"].returncode == 0, run["proc"].stderr[-2000:]
-    assert run["elapsed"] < 300  # a FIFO, a spinner and a 30 MB answer hold nothing up
+    # a FIFO, a spinner and a 30 MB answer hold nothing up: no submission was stopped by its time limit (a run
+    # they held up would end at _cli's timeout instead); judged by the grader's own verdicts, not the wall
+    # clock, which a loaded machine stretches
+    assert not {s: r["status"] for s, r in run["rows"].items() if "time limit" in r["status"]}
     for student in ("honest_a", "honest_b"):
         assert points(run, student) == FULL, run["rows"][student]
 

@@ -125,6 +125,70 @@ def test_a_cgroup_that_cannot_be_made_falls_back_to_polling_and_says_why(monkeyp
         assert "the cgroup could not be made" in box.describe()
 
 
+def test_the_delegated_cgroup_v2_scope_carries_every_limit():
+    """The systemd-run line of the delegated cgroup v2 way (a non-root grader on a systemd desktop); the
+    scope itself is not started here: this machine has no systemd user session (see the next test)."""
+    from robocourse.grading import resources
+
+    with resources.Box(512, 64, (1,), mode="cgroup-v2-delegated") as box:
+        cmd = box.wrap(["python3", "-m", "robocourse.grading.runner"])
+    assert cmd[:4] == ["systemd-run", "--user", "--scope", "--quiet"] and cmd[4] == f"--unit={box.unit}"
+    props = [cmd[i + 1] for i, x in enumerate(cmd) if x == "-p"]
+    assert props == ["MemoryMax=512M", "MemorySwapMax=0", "TasksMax=64", "CPUQuota=100%", "AllowedCPUs=1",
+                     f"CPUWeight={100 * resources.TIMING_WEIGHT}"]
+    assert cmd[cmd.index("--") + 1:] == ["python3", "-m", "robocourse.grading.runner"]
+
+
+def test_without_a_cgroup_the_grader_says_why_and_what_the_instructor_needs(monkeypatch):
+    """A non-root grader: cgroup v1 is refused, and the delegated v2 trial really runs systemd-run where it
+    exists (on a machine without a systemd user session it fails: "Failed to connect to bus")."""
+    import shutil
+
+    from robocourse.grading import resources
+
+    monkeypatch.setattr(resources, "_MODE", [])
+    monkeypatch.setattr(resources, "WHY_NOT", {})
+    monkeypatch.delenv("ROBOCOURSE_GRADE_RESOURCES", raising=False)
+    monkeypatch.setattr(resources.os, "geteuid", lambda: 1000)
+    works = resources._v2_delegated_usable()
+    if works:
+        pytest.skip("the delegated cgroup v2 works here: the fallback is not taken")
+    resources.WHY_NOT.clear()
+    assert resources.mode() == "polling"
+    hint = resources.fallback_hint()
+    assert "cgroup-v1: the grader is not root" in hint
+    if shutil.which("systemd-run"):
+        assert "`systemd-run --user --scope --quiet -p MemoryMax=64M -p TasksMax=16 -p CPUQuota=100% true` failed" in hint
+    else:
+        assert "systemd-run is not installed" in hint
+    assert "as root with the cgroup v1 memory, pids, cpu and cpuset controllers mounted" in hint
+    assert "Delegate=yes" in hint
+
+
+def test_the_library_is_compiled_outside_the_sandbox_and_its_judges_are_not():
+    import importlib.util
+    import time
+    from pathlib import Path
+
+    import robocourse
+    from robocourse.grading import checks
+
+    judges = checks.judge_side_modules(checks.discover())
+    assert judges
+    started = time.time()
+    said = sandbox.compile_library(judges)
+    if "read-only" in said:
+        pytest.skip(said)
+    root = Path(robocourse.__file__).resolve().parent
+    assert list((root / "grading" / "__pycache__").glob("runner.*.pyc")), said
+    for name in judges:
+        origin = Path(importlib.util.find_spec(name).origin)
+        fresh = [p for p in (origin.parent / "__pycache__").glob(f"{origin.stem}.*.pyc") if p.stat().st_mtime >= started]
+        assert not fresh, f"a judge module was compiled for the sandbox: {fresh}"
+        assert all(str(p) in sandbox.hidden_files([name])       # bytecode left by an unsandboxed run stays hidden
+                   for p in (origin.parent / "__pycache__").glob(f"{origin.stem}.*.pyc"))
+
+
 def test_the_private_dev_shm_is_size_limited(tmp_path):
     if not BWRAP:
         pytest.skip("bubblewrap is missing: /dev/shm cannot be private")
@@ -254,3 +318,21 @@ def test_a_cgroup_that_refuses_a_process_falls_back_to_polling_before_the_submis
         assert box.mode == "polling" and box.dirs == {}
         # the parent saw the errno and names the controller (preexec_fn would have said only "an exception")
         assert "the cgroup refused a process (its cpuset cgroup: No space left on device)" in box.describe()
+
+
+def test_a_timing_slot_weighs_as_many_processes_as_its_cpus_times_the_timing_weight():
+    """Issue 26: a cgroup is one scheduling entity; at the default weight a timing submission's loop and
+    the simulated robot it talks to shared one process's turn against every busy process beside the grader."""
+    from robocourse.grading import resources
+
+    if resources.mode() != "cgroup-v1":
+        pytest.skip(f"cgroup v1 is not writable here (mode {resources.mode()})")
+    cpus = tuple(resources.allowed_cpus())
+    with resources.Box(512, 64, cpus, mode="cgroup-v1") as slot, resources.Box(512, 64, None, mode="cgroup-v1") as plain:
+        if "polling" in (slot.mode, plain.mode):
+            pytest.skip(f"the cgroups could not be made here: {slot.fallback or plain.fallback}")
+        shares = int((slot.dirs["cpu"] / "cpu.shares").read_text())
+        assert shares == 1024 * resources.TIMING_WEIGHT * len(cpus)
+        assert int((plain.dirs["cpu"] / "cpu.shares").read_text()) == 1024      # a plain submission: one process
+    systemd = resources.Box(512, 64, cpus, mode="cgroup-v2-delegated", unit="u").wrap(["true"])
+    assert f"CPUWeight={min(10000, 100 * resources.TIMING_WEIGHT * len(cpus))}" in systemd

@@ -69,6 +69,15 @@ def run_motion(robot, offset, seconds):
                                                           "                import time\n"
                                                           "                time.sleep(0.03)\n")],
                property="nothing in the loop blocks for 20 cycles", says="communication_constraints_violation"),
+        Answer("computes 30 ms once in the loop", replace=[("            cycles += 1\n",
+                                                           "            cycles += 1\n"
+                                                           "            if cycles == 500:\n"
+                                                           "                import time\n"
+                                                           "                busy = time.thread_time() + 0.03\n"
+                                                           "                while time.thread_time() < busy:\n"
+                                                           "                    pass\n")],
+               property="nothing in the loop computes for 20 cycles (30 ms of its own CPU time: a planner step)",
+               says="communication_constraints_violation"),
         Answer("returns without motion_finished", replace=[("cmd.motion_finished = t >= seconds",
                                                             "cmd.motion_finished = False"),
                                                            ("            if cmd.motion_finished:\n",

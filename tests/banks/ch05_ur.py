@@ -39,7 +39,7 @@ class Streamer:
             next_t += self.period
             while (late := time.perf_counter() - next_t) > 0:      # behind: skip the missed ticks
                 next_t += self.period * (late // self.period + 1)
-            time.sleep(next_t - time.perf_counter())
+            time.sleep(max(0.0, next_t - time.perf_counter()))   # preempted past it: go on
         return self.c.servoStop(8.0)
 
 

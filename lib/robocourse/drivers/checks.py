@@ -70,8 +70,9 @@ def _phase_a(inputs, out) -> dict:
     if a["raised"]:
         why = f" (the robot: {stats.get('last_reflex')})" if stats.get("last_reflex") else ""
         tries = f" in each of {a['attempts']} runs" if a["attempts"] > 1 else ""
-        own = (f"; your loop's own share of the lost cycles reached {stats.get('max_own_lost_in_row')} in a row, "
-               f"apart from {stats.get('lost_machine', 0)} cycles the machine held it off the CPU"
+        own = (f"; your loop's own time without an answer (running or blocked, not waiting for a CPU) reached "
+               f"{stats.get('max_own_lost_in_row')} ms, apart from {stats.get('lost_machine', 0)} cycles the machine "
+               "held it off the CPU"
                if stats.get("watching") else "")
         if stats.get("reflexes_machine"):
             raise CheckFailed(f"the machine, not your code: in each of {a['attempts']} runs this grading machine held "
@@ -96,7 +97,8 @@ def _runs_to_the_end(inputs, out):
         raise CheckFailed("the robot never received a command: call control.writeOnce(JointPositions(q)) each cycle")
     machine = (f"; the machine held the loop off the CPU for {s.get('lost_machine')} cycles past the robot's limit "
                "(not counted against your code)" if s.get("lost_machine") else "")
-    own = (f"your loop's longest own run {s.get('max_own_lost_in_row')}, " if s.get("watching") else "")
+    own = (f"your loop's longest own time without an answer {s.get('max_own_lost_in_row')} ms, "
+           if s.get("watching") else "")
     return (f"{s.get('commands_ok')} of {s.get('cycles_moving')} states answered in time through "
             f"{len(inputs['pauses'])} pauses; longest run of lost cycles {s.get('max_lost_in_row')} ({own}the robot "
             f"stops at {fw.MAX_LOST_IN_ROW}){machine}")

@@ -51,7 +51,9 @@ reads that thread's run-queue wait (``/proc/<tid>/schedstat``: time it was runna
 task had the CPU) as each state leaves and while a run of lost cycles lasts, and counts against
 the client only the lost cycles it did not spend waiting for a CPU since the first unanswered
 state was sent: the communication reflex trips when the client's *own* share of the silence (its
-code running, or blocking: a sleep, a slow call) reaches the limit. The kernel records a wait
+code running, or blocking: a sleep, a slow call) reaches the limit, in milliseconds (a box
+starved itself ticks fewer times than milliseconds pass, so its count of lost cycles would let a
+busy client off). The kernel records a wait
 only when it ends; while the client is runnable the box blames it only if it is over the limit
 even counting every millisecond it could not see as a wait, and otherwise decides once the client
 has run or blocked (``verdicts_deferred``), for at most ``MACHINE_CAP_MS`` of silence: a reflex
@@ -84,9 +86,9 @@ _RING = 1 << 15
 #: ours: a starved box sends fewer states than milliseconds pass, so a client silent this long (ms of
 #: wall time since its last command) with at least SILENCE_LOST states unanswered also trips the communication reflex
 SILENCE_MS, SILENCE_LOST = 25, 5
-#: a watched client (``watch``): the same SILENCE_MS and SILENCE_LOST, the silence counted from when the first
-#: unanswered state was sent, less the time the client waited for a CPU or ran (never stricter than unwatched).
-#: While the client is runnable (its CPU wait not on record yet) the verdict waits, at most MACHINE_CAP_MS of silence
+#: a watched client (``watch``) instead: its own time without an answer (since the first unanswered state was sent,
+#: less its CPU waits) reaching ``max_lost`` ms, what 20 lost cycles are on a robot that never starves. While it is
+#: runnable (a CPU wait not on record yet) the verdict waits, at most MACHINE_CAP_MS of silence
 MACHINE_CAP_MS = 500
 #: the thresholds of the discontinuity reflexes (published limits x our margin, see franka_wire)
 _ACC = fw.MAX_JOINT_ACCELERATION * fw.DISCONTINUITY_MARGIN
@@ -169,7 +171,7 @@ class _ClientThread:
             self.close()
             raise ValueError(f"/proc/{tid}/schedstat has no run-queue wait here")
         self.marked = self.base = self.last = got[:2]
-        self.last_ns = self.marked_ns = time.monotonic_ns()
+        self.last_ns = time.monotonic_ns()
         self.last_ms = self.recorded_ms = self.ran_ms = self.unknown_ms = 0.0
         self.runnable = False
         self.queued_since: int | None = None
@@ -185,17 +187,18 @@ class _ClientThread:
         state = stat[stat.rfind(b")") + 2:stat.rfind(b")") + 3]
         return cpu, wait, state == b"R"
 
-    def mark(self) -> None:
+    def mark(self) -> tuple[int, int]:
         """At a state's send: the thread's CPU time and wait then (the baseline if its answer goes missing)."""
         got = self._look()
         if got is not None:
-            self.marked, self.marked_ns = got[:2], time.monotonic_ns()
+            self.marked = got[:2]
+        return self.marked
 
-    def restart(self) -> None:
-        """A run of lost cycles starts: count from the send of its first unanswered state."""
-        self.base, self.queued_since = self.marked, None
-        self.last, self.last_ns = self.marked, self.marked_ns
-        self.known_ns = self.marked_ns
+    def restart(self, base: tuple[int, int], base_ns: int) -> None:
+        """Count from ``base`` (the mark of the first unanswered state's send, at ``base_ns``)."""
+        self.base, self.queued_since = (int(base[0]), int(base[1])), None
+        self.last, self.last_ns = self.base, base_ns
+        self.known_ns = base_ns
 
     def waited_ms(self) -> float:
         """Run-queue wait (ms) since the baseline, the ongoing one estimated; updates ran_ms and runnable."""
@@ -280,6 +283,7 @@ class FrankaBox(TickingBox):
             self.counters[k] = 0               # in every stats answer, 0 included
         self._last_command_ns = time.monotonic_ns()   # when the last command of the motion came
         self._sent_ns = np.zeros(_RING, dtype=np.int64)
+        self._marks = np.zeros((_RING, 2), dtype=np.int64)   # a watched client's (CPU time, wait) at each send
         self.rtt_ns = np.zeros(_RING, dtype=np.int64)
         self.rtt_count = 0
         n = 7
@@ -294,7 +298,7 @@ class FrankaBox(TickingBox):
         self.last_reflex = ""
         self._values = self._state_template()
         self._watch: _ClientThread | None = None   # the client's thread (``watch``), or None
-        self.max_own_lost_in_row = 0           # the longest run of lost cycles counted against the client
+        self.max_own_lost_in_row = 0           # the longest run counted against the client (watched: its own ms)
         self._unanswered_since_ns = 0          # when the first state of the current run of lost cycles was sent
 
     # --- the state datagram -------------------------------------------------------------------------
@@ -546,6 +550,11 @@ class FrankaBox(TickingBox):
                 self.rtt_count += 1
             if back:
                 c["late"] += 1
+                if self._watch is not None and self.lost_in_row and back < _RING:
+                    # it has caught up with state mid: from here it waits for (or works on) mid + 1,
+                    # which the box may not have sent yet (a box held off the CPU mid-tick counts
+                    # an answer that came during its tick as late): its silence starts at that send
+                    self._start_silence(mid + 1)
                 continue
             if self.pending is not None:
                 c["duplicates"] += 1
@@ -674,17 +683,17 @@ class FrankaBox(TickingBox):
         waiting for its answer: the box's own starvation before it sent that state is not the client's."""
         return (time.monotonic_ns() - self._unanswered_since_ns) / 1e6
 
-    def _silence_too_long(self, machine_ms: float, attribute: bool = True) -> bool:
-        """Unwatched (the robot's rule as a starved box can keep it): silent for SILENCE_MS of wall
-        time since the last command, with SILENCE_LOST states unanswered. Watched: the same, the
-        silence counted from when the first unanswered state was sent, less the time the client
-        waited for a CPU or ran (a busy client working through states a starved box sent late is
-        left to the robot's own rule, lost cycles minus its waits)."""
-        if self._watch is None or not attribute:
-            silent = (time.monotonic_ns() - self._last_command_ns) / 1e6
-            return silent >= SILENCE_MS and self.lost_in_row >= SILENCE_LOST
-        return (self.lost_in_row >= SILENCE_LOST
-                and self._silent_ms() - machine_ms - self._watch.ran_ms >= SILENCE_MS)
+    def _silence_too_long(self) -> bool:
+        """The robot's rule as a starved box can keep it: silent for SILENCE_MS of wall time since
+        the last command, with SILENCE_LOST states unanswered."""
+        silent = (time.monotonic_ns() - self._last_command_ns) / 1e6
+        return silent >= SILENCE_MS and self.lost_in_row >= SILENCE_LOST
+
+    def _own_ms(self, machine_ms: float) -> float:
+        """A watched client's own time (ms) without an answer: since the first unanswered state
+        was sent, less what it spent waiting for a CPU (``machine_ms``); its running and its
+        blocking (a sleep, a slow call) count. On a robot that never starves, 20 lost cycles."""
+        return self._silent_ms() - machine_ms
 
     def _machine_note(self) -> str:
         if self._watch is None:
@@ -692,13 +701,19 @@ class FrankaBox(TickingBox):
         return (f"; the client waited {self._watch.last_ms:.0f} ms of it for a CPU, ran {self._watch.ran_ms:.0f} ms"
                 f"{self._watch.where()}")
 
+    def _start_silence(self, mid: int) -> None:
+        """The client's silence runs from the send of state ``mid`` (its first unanswered one)."""
+        since = int(self._sent_ns[mid % _RING])
+        if since > self._unanswered_since_ns:
+            self._unanswered_since_ns = since
+            if self._watch is not None:
+                self._watch.restart(self._marks[mid % _RING], since)
+
     def _machine_ms(self) -> float:
         """How much of the current run of lost cycles (ms) the watched client spent waiting for a
         CPU, counted from the send of its first unanswered state (0 when nothing is watched)."""
         if self._watch is None:
             return 0.0
-        if self.lost_in_row == 1:
-            self._watch.restart()
         return self._watch.waited_ms()
 
     def tick(self) -> None:
@@ -727,29 +742,33 @@ class FrankaBox(TickingBox):
                 # than milliseconds pass, so a long silence in wall time trips it too
                 # (_silence_too_long: a box that stalled itself is not the client's fault)
                 if self.lost_in_row == 1:     # the state sent last tick is the first one left unanswered
-                    self._unanswered_since_ns = int(self._sent_ns[self.message_id % _RING])
+                    self._unanswered_since_ns = 0
+                    self._start_silence(self.message_id)
                 machine_ms = self._machine_ms()
-                own = self.lost_in_row - machine_ms
-                trip = own >= self.max_lost or self._silence_too_long(machine_ms)
-                if trip and self._watch is not None and self._watch.runnable:
-                    # the client is runnable: it may be waiting for a CPU now, a wait the kernel puts
-                    # on record only when it ends. Blame it only if it is over the limit even when
-                    # every unknown millisecond was a wait; else decide once it has run or blocked
-                    # (up to MACHINE_CAP_MS of silence: then the reflex is the machine's)
-                    most = self._watch.recorded_ms + self._watch.unknown_ms
-                    if not (self.lost_in_row - most >= self.max_lost or self._silence_too_long(most)):
-                        if self._silent_ms() < MACHINE_CAP_MS:
-                            trip = False
-                            c["verdicts_deferred"] += 1
-                        else:
-                            c["reflexes_machine"] += 1
-                if trip or self._watch is None or not self._watch.runnable:
-                    self.max_own_lost_in_row = max(self.max_own_lost_in_row, max(0, int(own)))
+                if self._watch is None:       # the robot's rule (and the silence rule of a starved box)
+                    own = self.lost_in_row
+                    trip = own >= self.max_lost or self._silence_too_long()
+                else:                         # the client's own time, its CPU waits apart
+                    own = self._own_ms(machine_ms)
+                    trip = own >= self.max_lost
+                    if trip and self._watch.runnable:
+                        # runnable: it may be waiting for a CPU now, a wait the kernel puts on
+                        # record only when it ends. Blame it only if it is over the limit even when
+                        # every unseen millisecond was a wait; else decide once it has run or
+                        # blocked (up to MACHINE_CAP_MS of silence: then the reflex is the machine's)
+                        if self._own_ms(self._watch.recorded_ms + self._watch.unknown_ms) < self.max_lost:
+                            own = min(own, self.max_lost - 1)
+                            if self._silent_ms() < MACHINE_CAP_MS:
+                                trip = False
+                                c["verdicts_deferred"] += 1
+                            else:
+                                c["reflexes_machine"] += 1
+                self.max_own_lost_in_row = max(self.max_own_lost_in_row, max(0, int(own)))
                 if trip:
                     self._reflex(fw.ERR_COMMUNICATION_CONSTRAINTS_VIOLATION,
                                  detail=f"{self.lost_in_row} lost in a row" + self._machine_note())
                 else:
-                    if self.lost_in_row >= self.max_lost or self._silence_too_long(0.0, attribute=False):
+                    if self.lost_in_row >= self.max_lost or self._silence_too_long():
                         c["lost_machine"] += 1     # the robot's rule would trip: the machine's doing
                     self._extrapolate(self.message_id)
         else:
@@ -771,7 +790,7 @@ class FrankaBox(TickingBox):
         self._mode_switch_state = self.motion is not None and not self._last_state_moving
         self._last_state_moving = self.motion is not None
         if self._watch is not None and self.motion is not None:
-            self._watch.mark()                 # the client's CPU time and wait as this state leaves
+            self._marks[self.message_id % _RING] = self._watch.mark()   # the client's CPU time and wait as it leaves
         self._sent_ns[self.message_id % _RING] = time.monotonic_ns()
         for conn in list(self.conns.values()):
             if conn.udp is not None:

@@ -179,6 +179,7 @@ def _workroot() -> Path:
         root = Path(tempfile.mkdtemp(prefix="robocourse-bank-"))
         atexit.register(shutil.rmtree, root, True)
         warm_font_cache(root)
+        sandbox.compile_library(checks_mod.judge_side_modules())
         _WORKROOT.append(root)
     return _WORKROOT[0]
 

@@ -627,6 +627,8 @@ def grade(submissions, *, solutions_dir="solutions", jobs: int = 1, time_limit: 
     os.chmod(workroot, 0o700)
     if any(s.assignment for s in subs):
         warm_font_cache(workroot)
+        if mode == "bwrap":
+            sandbox.compile_library(checks_mod.judge_side_modules(checks_mod.discover()))
     grades: list[Grade | None] = [None] * len(subs)
 
     gate = resources.CpuGate()
@@ -721,8 +723,10 @@ def _limits_line(limits: sandbox.Limits) -> str:
     cpu = ("a submission with a timing check ran alone with every CPU; the others side by side, one CPU's worth each"
            if resources.mode() != "polling" else
            "a submission with a timing check ran alone; the others side by side (no CPU cap without a cgroup)")
+    hint = resources.fallback_hint()
     return (f"limits per submission: {limits.memory_mb} MB, {limits.max_processes} processes, a {limits.work_mb} MB "
-            f"folder, a {limits.shm_mb} MB /dev/shm, {limits.time_s:g} s; enforced by {how}; {cpu}")
+            f"folder, a {limits.shm_mb} MB /dev/shm, {limits.time_s:g} s; enforced by {how}; {cpu}"
+            + (f"; {hint}" if hint else ""))
 
 
 def _rows(path) -> int:

@@ -59,18 +59,25 @@ def _own_v1_path(controller: str) -> Path | None:
     return None
 
 
+#: why each cgroup way was not taken (filled by :func:`mode`; shown when the grader falls back to polling)
+WHY_NOT: dict[str, str] = {}
+
+
 def _v1_usable() -> bool:
     if os.geteuid() != 0:
+        WHY_NOT["cgroup-v1"] = "the grader is not root"
         return False
     for c in V1_CONTROLLERS:
         base = _own_v1_path(c)
         if base is None or not base.is_dir():
+            WHY_NOT["cgroup-v1"] = f"no cgroup v1 {c} hierarchy is mounted"
             return False
         probe = base / f"robocourse-probe-{uuid.uuid4().hex[:8]}"
         try:
             probe.mkdir()
             probe.rmdir()
-        except OSError:
+        except OSError as exc:
+            WHY_NOT["cgroup-v1"] = f"a cgroup cannot be made in {base} ({exc.strerror or exc})"
             return False
     return True
 
@@ -108,15 +115,39 @@ def sweep_stale_v1(min_age_s: float = 60.0) -> list[Path]:
     return removed
 
 
+V2_TRIAL = ["systemd-run", "--user", "--scope", "--quiet", "-p", "MemoryMax=64M", "-p", "TasksMax=16",
+            "-p", "CPUQuota=100%", "true"]
+
+
 def _v2_delegated_usable() -> bool:
-    if os.geteuid() == 0 or shutil.which("systemd-run") is None:
+    if os.geteuid() == 0:
+        WHY_NOT["cgroup-v2-delegated"] = "it is for a grader that is not root (as root, cgroup v1 is the way)"
+        return False
+    if shutil.which("systemd-run") is None:
+        WHY_NOT["cgroup-v2-delegated"] = "systemd-run is not installed (no systemd)"
         return False
     try:
-        proc = subprocess.run(["systemd-run", "--user", "--scope", "--quiet", "-p", "MemoryMax=64M", "true"],
-                              capture_output=True, timeout=20)
-    except (OSError, subprocess.TimeoutExpired):
+        proc = subprocess.run(V2_TRIAL, capture_output=True, text=True, timeout=20)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        WHY_NOT["cgroup-v2-delegated"] = f"`{' '.join(V2_TRIAL)}` did not run ({exc})"
         return False
-    return proc.returncode == 0
+    if proc.returncode != 0:
+        said = (proc.stderr or proc.stdout).strip().splitlines()
+        WHY_NOT["cgroup-v2-delegated"] = (f"`{' '.join(V2_TRIAL)}` failed (exit {proc.returncode}"
+                                          + (f": {said[0][:200]}" if said else "") + ")")
+        return False
+    return True
+
+
+def fallback_hint() -> str:
+    """Why no cgroup was used and what the instructor needs for one (empty when a cgroup way is in use)."""
+    if mode() != "polling":
+        return ""
+    why = "; ".join(f"{k}: {v}" for k, v in WHY_NOT.items()) or "ROBOCOURSE_GRADE_RESOURCES=polling"
+    return (f"no cgroup ({why}). For per-submission limits that count shared memory, run the grader either as "
+            "root with the cgroup v1 memory, pids, cpu and cpuset controllers mounted, or as a user of a systemd "
+            f"session in which `{' '.join(V2_TRIAL)}` succeeds (cgroup v2 with the memory, pids and cpu "
+            "controllers delegated to the user: systemd's user@.service has Delegate=yes by default)")
 
 
 def mode() -> str:
@@ -137,7 +168,8 @@ def mode() -> str:
 #: 1024 x this x CPUs; v2 ``CPUWeight``). The cgroup is one scheduling entity: at the default weight a
 #: submission's loop *and* the simulated robot it talks to shared one process's turn against every busy
 #: process beside the grader (the FR3 box then sent 5 states in 70 ms under chapter 1's CPU load and the
-#: verdict was the machine's). Its CPU time stays capped by its quota; the weight only decides who runs first.
+#: verdict was the machine's). Its CPU time stays capped by its quota; the weight only decides who runs first
+#: (clamped to the kernel's and systemd's maxima: 262144 shares, CPUWeight 10000).
 TIMING_WEIGHT = 8
 
 
@@ -228,7 +260,7 @@ class Box:
                 share = len(self.cpus) if self.cpus else 1
                 (self.dirs["cpu"] / "cpu.cfs_quota_us").write_text(str(period * share))
                 if self.cpus:   # a timing slot weighs as TIMING_WEIGHT ordinary processes per CPU (see below)
-                    (self.dirs["cpu"] / "cpu.shares").write_text(str(1024 * TIMING_WEIGHT * share))
+                    (self.dirs["cpu"] / "cpu.shares").write_text(str(min(262144, 1024 * TIMING_WEIGHT * share)))
                 cpus = ",".join(map(str, self.cpus)) if self.cpus else \
                     (self.dirs["cpuset"].parent / "cpuset.cpus").read_text().strip()
                 (self.dirs["cpuset"] / "cpuset.cpus").write_text(cpus)
@@ -278,7 +310,7 @@ class Box:
         props = [f"MemoryMax={self.memory_mb}M", "MemorySwapMax=0", f"TasksMax={self.max_processes}",
                  f"CPUQuota={100 * (len(self.cpus) if self.cpus else 1)}%"]
         if self.cpus:
-            props += [f"AllowedCPUs={','.join(map(str, self.cpus))}", f"CPUWeight={100 * TIMING_WEIGHT * len(self.cpus)}"]
+            props += [f"AllowedCPUs={','.join(map(str, self.cpus))}", f"CPUWeight={min(10000, 100 * TIMING_WEIGHT * len(self.cpus))}"]
         cmd = ["systemd-run", "--user", "--scope", "--quiet", f"--unit={self.unit}"]
         for p in props:
             cmd += ["-p", p]

@@ -74,9 +74,6 @@ HEARTBEAT_PERIOD = 0.5
 QUERY_TIMEOUT = 600.0
 #: rmw_zenoh waits forever (UINT64_MAX ms) for ``**/_action/get_result/**``; a year will do
 GET_RESULT_TIMEOUT = 365 * 24 * 3600.0
-#: samples zenoh queues for one subscription before its network thread waits (zenoh's own
-#: ``API_DATA_RECEPTION_CHANNEL_SIZE``, what its callback handlers use)
-SAMPLE_CHANNEL_SIZE = 256
 
 
 def _config(mode, connect, listen, timeout):
@@ -234,7 +231,6 @@ class ZenohTransport:
         self.remote: dict[str, wire.Entity] = {}
         self.dropped_no_attachment = 0
         self.dropped_undecodable = 0
-        self.receive_errors = 0
         self.malformed_tokens: list[tuple[str, str]] = []
         self.mismatches: list[str] = []
         self._closed = False
@@ -369,37 +365,7 @@ class ZenohTransport:
                 self.session, key, on_sample, allowed_origin=z.Locality.REMOTE,
                 history=ext.HistoryConfig(detect_late_publishers=True, max_samples=q.history),
                 recovery=recovery, subscriber_detection=True)
-        zsub = self.session.declare_subscriber(key, z.handlers.FifoChannel(SAMPLE_CHANNEL_SIZE),
-                                               allowed_origin=z.Locality.REMOTE)
-        threading.Thread(target=self._drain, args=(zsub.handler, on_sample, sub), daemon=True,
-                         name=f"zenoh-sub {sub.topic_name}").start()
-        return zsub
-
-    def _drain(self, handler, on_sample, sub):
-        """The subscription's receive thread: blocks (GIL released) until zenoh has a sample,
-        then takes every sample already waiting in one go (subscriber-side batching: one GIL
-        hand-over and at most one executor wake-up per burst instead of one per sample, as
-        zenoh's own callback thread would do). Ends when the subscriber is undeclared or the
-        session closes (zenoh closes the channel)."""
-        recv, try_recv, ZError = handler.recv, handler.try_recv, self._zenoh.ZError
-        while True:
-            try:
-                sample = recv()
-            except ZError:          # channel closed: undeclared, or the session closed
-                return
-            while sample is not None:
-                try:
-                    on_sample(sample)
-                except Exception as exc:  # noqa: BLE001 - a bug here must not end the thread
-                    self._receive_failed(sub, exc)
-                sample = try_recv()
-
-    def _receive_failed(self, sub, exc):
-        self.receive_errors += 1
-        if self.receive_errors == 1:
-            sub._node.get_logger().error(
-                f"sample on '{sub.topic_name}' could not be delivered: {type(exc).__name__}: "
-                f"{exc}. transport.receive_errors counts them")
+        return self.session.declare_subscriber(key, on_sample, allowed_origin=z.Locality.REMOTE)
 
     def _dropped(self, what, where, node):
         self.dropped_no_attachment += 1
