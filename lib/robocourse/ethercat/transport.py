@@ -42,7 +42,7 @@ def open_raw(ifname: str) -> socket.socket:
 
         raise PermissionError(
             f"opening a raw socket for {ifname!r} needs CAP_NET_RAW ({e}): run the master as root (sudo), "
-            + setcap_advice("cap_net_raw")) from e
+            + setcap_advice("cap_net_raw", lead="or, without sudo, set it")) from e
     try:
         sock.bind((ifname, ETHERTYPE_ECAT))
     except OSError as e:

@@ -59,13 +59,16 @@ def interpreter_is_copy() -> bool:
     return sys.prefix != sys.base_prefix and os.path.isfile(exe) and not os.path.islink(exe)
 
 
-def setcap_advice(caps: str) -> str:
-    """The capability route, only ever on a copied interpreter (``caps`` e.g. "cap_sys_nice")."""
+def setcap_advice(caps: str, lead: str = "or, without a new login,") -> str:
+    """The capability route, only ever on a copied interpreter (``caps`` e.g. "cap_sys_nice").
+
+    ``lead`` joins it to the advice before it: after limits.conf, "or, without a new login,"; after
+    "run it as root (sudo)", where no limits.conf route exists, e.g. "or, without sudo, set it"."""
     if interpreter_is_copy():
-        return (f"or, without a new login, for this copied venv interpreter only:\n"
+        return (f"{lead} for this copied venv interpreter only:\n"
                 f"  sudo setcap {caps}+ep {sys.executable}")
     base = os.path.realpath(sys.executable)
-    return ("or, without a new login, on a COPIED interpreter only; never setcap\n"
+    return (f"{lead} on a COPIED interpreter only; never setcap\n"
             f"  {base}\n"
             "itself: that grants it to every Python script on the machine:\n"
             "  python3 -m venv --copies .venv-rt && .venv-rt/bin/pip install -r requirements.txt -e .\n"
