@@ -111,3 +111,16 @@ def test_the_judge_finds_which_state_each_target_came_from_and_names_an_index_re
     out["arm"]["commands"] = commands(True)
     d = checks._Deployment(inputs, out)
     assert d.misread and d.misread[0][0] == "index" and not d.unexplained
+
+
+def test_decimation_discounts_the_machines_stalls_and_their_catch_up_not_the_codes_pace():
+    """The steps (ticks between the targets' states) measured sandboxed under CpuLoad(2): a tick-paced brain
+    starved for 300 ms keeps its 5s; a time-paced brain's catch-up after a stall is dropped with the stall; a
+    brain on every tick stays at 1 however starved; one at twice the decimation keeps nothing."""
+    from robocourse.rl.checks import _decimation_steps
+
+    assert _decimation_steps([5, 5, 5, 5, 5, 10, 35, 30, 5, 5, 5], 5, 3) == ([5, 5, 5, 5, 5], 2)
+    assert _decimation_steps([4, 4, 4, 35, 1, 1, 1, 1, 1, 1, 1, 1, 4, 4], 4, 3) == ([4, 4, 4, 4, 4], 1)
+    kept, _ = _decimation_steps([1, 1, 1, 35] + [1] * 13, 4, 3)
+    assert kept and max(kept) == 1
+    assert _decimation_steps([8] * 11, 4, 3) == ([], 6)
