@@ -642,10 +642,17 @@ def _deploy_keeps_ticking(inputs, out):
     t0 = t_end - inputs["stall_s"]
     served = sum(1 for w in d.wall.values() if t0 <= w <= t_end)
     want = inputs["stall_s"] * d.rate
-    if served < 0.6 * want:
+    # against the loop's own pace before the stall on this machine: a starved machine slows every tick alike
+    # (measured under CpuLoad(2): 56 of 100 served by a loop that never waits); a loop that waits serves ~none
+    before = sorted(w for w in d.wall.values() if w < t0)
+    pace = (len(before) - 1) / (before[-1] - before[0]) if len(before) > 10 and before[-1] > before[0] else d.rate
+    expect = min(want, pace * inputs["stall_s"])
+    if served < 0.6 * expect:
         raise CheckFailed(f"while the brain was stuck for {inputs['stall_s']:g} s the control loop served {served} of "
-                          f"{int(want)} ticks: the loop must not wait for the brain")
-    return f"{served} ticks served while the brain was stuck"
+                          f"{int(want)} ticks ({pace:.0f} per s before the stall on this machine): the loop must not "
+                          "wait for the brain")
+    return (f"{served} ticks served while the brain was stuck"
+            + (f" ({pace:.0f} per s before it: the machine's pace)" if pace < 0.9 * d.rate else ""))
 
 
 _DEPLOY_SCHEMA = Dict(

@@ -228,13 +228,15 @@ class RecordingRuntime(PolicyRuntime):
 
 
 def read_call_log(path) -> list[dict]:
-    """The records a :class:`RecordingRuntime` appended to ``path`` (empty if there are none)."""
+    """The records a :class:`RecordingRuntime` appended to ``path`` (empty if there are none). A line still
+    being written (no newline yet: another process appends while this one reads) is left for the next read."""
     import json
 
     path = Path(path)
     if not path.exists():
         return []
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    complete = path.read_text().split("\n")[:-1]
+    return [json.loads(line) for line in complete if line.strip()]
 
 
 def load_runtime(path, io_binding: bool = True, call_log=None, stall_after: int | None = None,
