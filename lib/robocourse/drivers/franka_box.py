@@ -85,6 +85,7 @@ from .ticker import TickingBox
 _RING = 1 << 15
 #: ours: a starved box sends fewer states than milliseconds pass, so a client silent this long (ms of
 #: wall time since its last command) with at least SILENCE_LOST states unanswered also trips the communication reflex
+#: (for the robot's 20 lost cycles; a box given another ``max_lost`` scales SILENCE_MS with it)
 SILENCE_MS, SILENCE_LOST = 25, 5
 #: a watched client (``watch``) instead: its own time without an answer (since the first unanswered state was sent,
 #: less its CPU waits) reaching ``max_lost`` ms, what 20 lost cycles are on a robot that never starves. While it is
@@ -685,9 +686,10 @@ class FrankaBox(TickingBox):
 
     def _silence_too_long(self) -> bool:
         """The robot's rule as a starved box can keep it: silent for SILENCE_MS of wall time since
-        the last command, with SILENCE_LOST states unanswered."""
+        the last command, with SILENCE_LOST states unanswered; scaled with ``max_lost`` (a box that
+        allows more lost cycles than the robot's 20, a benchmark's, allows as much more silence)."""
         silent = (time.monotonic_ns() - self._last_command_ns) / 1e6
-        return silent >= SILENCE_MS and self.lost_in_row >= SILENCE_LOST
+        return silent >= SILENCE_MS * self.max_lost / fw.MAX_LOST_IN_ROW and self.lost_in_row >= SILENCE_LOST
 
     def _own_ms(self, machine_ms: float) -> float:
         """A watched client's own time (ms) without an answer: since the first unanswered state
