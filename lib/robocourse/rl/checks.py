@@ -585,7 +585,7 @@ def _deploy_safe_mode(inputs, out):
     if len(tgts) < 2:
         raise CheckFailed("too few targets reached the robot to see what happens when the brain stops")
     gap, k_a, k_b = max((b[1] - a[1], a[1], b[1]) for a, b in zip(tgts, tgts[1:]))
-    stall = inputs["stall_s"] * d.rate
+    stall, _pace = _stall_ticks(d, out)        # the ticks this machine let the loop serve meanwhile
     if gap < 0.5 * stall:
         raise CheckFailed(f"the brain stopped answering for {inputs['stall_s']:g} s (its call {inputs['stall_after'] + 1}) "
                           "but the targets never paused: the control loop waited for the brain")
@@ -634,6 +634,16 @@ def _deploy_own_process(inputs, out):
     return "the policy ran in another process"
 
 
+def _stall_ticks(d: _Deployment, out) -> tuple[float, float]:
+    """(ticks a loop that never waits serves during the brain's stall on this machine, its ticks per s before
+    the stall): the loop's own pace, not the nominal rate: a starved machine slows every tick alike (measured
+    under CpuLoad(2): 56 of 100 served by a loop that never waits); a loop that waits serves about none."""
+    stall_s, stall_t = d.inputs["stall_s"], out.get("stall_t")
+    before = sorted(w for w in d.wall.values() if stall_t is None or w < stall_t - stall_s)
+    pace = (len(before) - 1) / (before[-1] - before[0]) if len(before) > 10 and before[-1] > before[0] else d.rate
+    return min(stall_s * d.rate, pace * stall_s), pace
+
+
 def _deploy_keeps_ticking(inputs, out):
     d = _deployment(inputs, out)
     t_end = out.get("stall_t")
@@ -642,11 +652,7 @@ def _deploy_keeps_ticking(inputs, out):
     t0 = t_end - inputs["stall_s"]
     served = sum(1 for w in d.wall.values() if t0 <= w <= t_end)
     want = inputs["stall_s"] * d.rate
-    # against the loop's own pace before the stall on this machine: a starved machine slows every tick alike
-    # (measured under CpuLoad(2): 56 of 100 served by a loop that never waits); a loop that waits serves ~none
-    before = sorted(w for w in d.wall.values() if w < t0)
-    pace = (len(before) - 1) / (before[-1] - before[0]) if len(before) > 10 and before[-1] > before[0] else d.rate
-    expect = min(want, pace * inputs["stall_s"])
+    expect, pace = _stall_ticks(d, out)
     if served < 0.6 * expect:
         raise CheckFailed(f"while the brain was stuck for {inputs['stall_s']:g} s the control loop served {served} of "
                           f"{int(want)} ticks ({pace:.0f} per s before the stall on this machine): the loop must not "
