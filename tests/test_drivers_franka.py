@@ -312,6 +312,7 @@ def _watched_box(monkeypatch, cap_ms=None):
     _tick(b)                                   # the first state of the motion leaves (its modes switched) ...
     _tick(b)                                   # ... unanswered, as libfranka never answers it: not lost
     assert b.counters["mode_switch_states"] == 1 and b.lost_in_row == 0
+    b.motion.answered = True                   # a command of the motion has come (the start is another rule)
     return b, seen
 
 
@@ -395,6 +396,25 @@ def test_a_late_answer_restarts_a_watched_client_s_silence_from_the_next_state(m
         assert b.counters["reflexes"] == 1
     finally:
         client.close()
+        _close(b)
+
+
+def test_before_its_first_command_a_watched_client_is_judged_by_lost_cycles_less_its_waits(monkeypatch):
+    """libfranka's startMotion reads every state queued when the modes switch and answers none: a
+    client that read two there waits for the box's next state while one it never saw counts as
+    lost (one quiet bank run: '1 lost in a row', 34 ms since it left, the client asleep in its
+    UDP receive). Before the first command the box counts lost cycles less the client's waits;
+    a client that never answers still trips at the robot's 20."""
+    b, seen = _watched_box(monkeypatch)
+    try:
+        b.motion.answered = False
+        _tick(b, ms=40)                                     # a starved box: 40 ms since the state left
+        assert b.counters["reflexes"] == 0 and b.lost_in_row == 1
+        _tick(b, 18)
+        assert b.counters["reflexes"] == 0
+        _tick(b)                                            # 20 lost in a row, none of it waiting for a CPU
+        assert b.counters["reflexes"] == 1
+    finally:
         _close(b)
 
 

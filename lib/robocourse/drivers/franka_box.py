@@ -151,6 +151,7 @@ class _Motion:
     dq: _Track                        # commanded velocities (joint velocity generator)
     tau: _Track                       # commanded torques (external controller)
     received: tuple | None = None     # (t, q_c) of the last position command that came (not extrapolated)
+    answered: bool = False            # has any command of this motion come in time?
 
 
 class _ClientThread:
@@ -694,7 +695,12 @@ class FrankaBox(TickingBox):
     def _own_ms(self, machine_ms: float) -> float:
         """A watched client's own time (ms) without an answer: since the first unanswered state
         was sent, less what it spent waiting for a CPU (``machine_ms``); its running and its
-        blocking (a sleep, a slow call) count. On a robot that never starves, 20 lost cycles."""
+        blocking (a sleep, a slow call) count. On a robot that never starves, 20 lost cycles.
+        Before the motion's first command, lost cycles less its waits instead: libfranka's
+        startMotion reads every state that is queued when the modes switch and answers none, so
+        the client may be waiting for the box's next state while one it never saw counts as lost."""
+        if self.motion is not None and not self.motion.answered:
+            return self.lost_in_row - machine_ms
         return self._silent_ms() - machine_ms
 
     def _machine_note(self) -> str:
@@ -732,6 +738,7 @@ class FrankaBox(TickingBox):
             cmd, self.pending = self.pending, None
             if cmd is not None:
                 c["commands_ok"] += 1
+                self.motion.answered = True
                 self.lost_in_row = 0
                 self.window.append(1)
                 self._apply(cmd)
