@@ -639,6 +639,27 @@ def stages(n):
 
 
 # ------------------------------------------------------------------------------ CPU budget
+def _echo_hooks(name, put):
+    """The echo node (/ping -> /pong, KEEP_ALL) wired to the zenoh transport's own sample
+    callback and sender, without a session: the sender ends in ``put.put(data, attachment)``.
+    Returns (context, node, publisher, subscription, on_sample)."""
+    from robocourse.bus import Context, HistoryPolicy, QoSProfile
+    from robocourse.bus.zenoh import transport
+    from robocourse.msgs.std_msgs import String
+
+    ctx = Context()
+    qos = QoSProfile(depth=7, history=HistoryPolicy.KEEP_ALL)
+    node = ctx.create_node("echo")
+    pub = node.create_publisher(String, "/pong", qos)
+    sub = node.create_subscription(String, "/ping", pub.publish, qos)
+    zt = transport.ZenohTransport.__new__(transport.ZenohTransport)   # no session: hooks only
+    zt.dropped_no_attachment = zt.dropped_undecodable = 0
+    loc = transport._Local(name, None, name, put)
+    loc.t = String
+    pub._remote = zt._sender(loc)
+    return ctx, node, pub, sub, zt._on_sample(sub)
+
+
 def budget(n):
     """The echo process's own work per message, without zenoh's network threads or sockets:
     the transport's real sample callback (fed samples that carry rmw_zenoh's attachment and
@@ -649,9 +670,8 @@ def budget(n):
     and in batches of 100 (the executor wakes once per batch and drains it: what
     subscriber-side batching could give at best). CPU time of the whole process per message,
     best of 3: the floor robocourse's layers put under a flood, whatever zenoh does."""
-    from robocourse.bus import Context, HistoryPolicy, QoSProfile, SingleThreadedExecutor
-    from robocourse.bus.zenoh import transport, wire
-    from robocourse.msgs.std_msgs import String
+    from robocourse.bus import SingleThreadedExecutor
+    from robocourse.bus.zenoh import wire
 
     class _Bytes:
         __slots__ = ("b",)
@@ -677,19 +697,9 @@ def budget(n):
             if state["count"] >= state["want"]:
                 echoed.set()
 
-    ctx = Context()
-    qos = QoSProfile(depth=7, history=HistoryPolicy.KEEP_ALL)
-    node = ctx.create_node("echo")
-    pub = node.create_publisher(String, "/pong", qos)
-    sub = node.create_subscription(String, "/ping", pub.publish, qos)
+    ctx, node, pub, sub, on_sample = _echo_hooks("budget", _Put())
     ex = SingleThreadedExecutor(context=ctx)
     ex.add_node(node)
-    zt = transport.ZenohTransport.__new__(transport.ZenohTransport)   # no session: hooks only
-    zt.dropped_no_attachment = zt.dropped_undecodable = 0
-    on_sample = zt._on_sample(sub)
-    loc = transport._Local("budget", None, "budget", _Put())
-    loc.t = String
-    pub._remote = zt._sender(loc)
     spinner = threading.Thread(target=ex.spin, daemon=True)
     spinner.start()
     print(f"echo's own work per message (CPU us of the process, best of 3 x {n} messages; no "
@@ -722,7 +732,7 @@ def _pieces(n, sample_type):
     """Each piece of the echo's work alone, warm, in one thread (thread CPU per call, best of
     7 x ``n`` calls): what the Python layers cost at best, beside what they cost in a flood."""
     from robocourse.bus import Context, HistoryPolicy, QoSProfile, SingleThreadedExecutor
-    from robocourse.bus.zenoh import transport, wire
+    from robocourse.bus.zenoh import wire
     from robocourse.msgs.std_msgs import String
 
     class _Put:
@@ -761,17 +771,7 @@ def _pieces(n, sample_type):
         ctx.try_shutdown()
         return dt / n * 1e6
 
-    ctx = Context()
-    qos = QoSProfile(depth=7, history=HistoryPolicy.KEEP_ALL)
-    node = ctx.create_node("echo")
-    pub = node.create_publisher(String, "/pong", qos)
-    sub = node.create_subscription(String, "/ping", pub.publish, qos)
-    zt = transport.ZenohTransport.__new__(transport.ZenohTransport)   # no session: hooks only
-    zt.dropped_no_attachment = zt.dropped_undecodable = 0
-    on_sample = zt._on_sample(sub)
-    loc = transport._Local("pieces", None, "pieces", _Put())
-    loc.t = String
-    pub._remote = zt._sender(loc)
+    ctx, _node, pub, sub, on_sample = _echo_hooks("pieces", _Put())
     dec, enc = wire.decoder(String), wire.encoder(String, buffer=True)
     ex_cb = min(executor_per_callback() for _ in range(3))
     print(f"\nthe echo's work piece by piece, warm, one thread (thread CPU us per call, best of "

@@ -308,3 +308,24 @@ def progress_updates(monkeypatch):
     monkeypatch.setattr(progress_line, "_in_kernel", lambda: True)
     monkeypatch.setattr(IPython.display, "display", lambda obj, raw=False, display_id=False: Handle())
     return updates
+
+
+@pytest.fixture
+def zenoh_pair():
+    """Two zenoh contexts (two sessions, as two processes would have) joined by a zenoh router
+    on a free loopback port; shut down after the test."""
+    import socket
+
+    from robocourse.bus.context import Context
+    from robocourse.bus.zenoh.transport import router
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        ep = f"tcp/127.0.0.1:{s.getsockname()[1]}"
+    r = router([ep])
+    a = Context(transport="zenoh", connect=[ep])
+    b = Context(transport="zenoh", connect=[ep])
+    yield a, b
+    a.try_shutdown()
+    b.try_shutdown()
+    r.close()

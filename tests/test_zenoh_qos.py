@@ -1,33 +1,17 @@
 """QoS across the wire as rmw_zenoh maps it, and the in-process path kept (two contexts =
 two zenoh sessions, in one test process)."""
 
-import socket
 import struct
 import time
 
 import pytest
 import zenoh
 
-from robocourse.bus.context import Context
 from robocourse.bus.executors import SingleThreadedExecutor
 from robocourse.bus.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from robocourse.bus.zenoh import wire
-from robocourse.bus.zenoh.transport import HEARTBEAT_PERIOD, ZenohQoS, router, zenoh_qos
+from robocourse.bus.zenoh.transport import HEARTBEAT_PERIOD, ZenohQoS, zenoh_qos
 from robocourse.msgs.std_msgs import Int32, String
-
-
-@pytest.fixture
-def two():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        ep = f"tcp/127.0.0.1:{s.getsockname()[1]}"
-    r = router([ep])
-    a = Context(transport="zenoh", connect=[ep])
-    b = Context(transport="zenoh", connect=[ep])
-    yield a, b
-    a.try_shutdown()
-    b.try_shutdown()
-    r.close()
 
 
 def _remote(transport, kind, topic):
@@ -56,8 +40,8 @@ def _spin(ctx, node, cond, timeout=10.0):
      QoSProfile(depth=3, durability=DurabilityPolicy.TRANSIENT_LOCAL), [2, 3, 4]),
 ])
 def test_transient_local_late_joiner_gets_the_last_depth_samples_across_the_wire(
-        two, pub_qos, sub_qos, want):
-    a, b = two
+        zenoh_pair, pub_qos, sub_qos, want):
+    a, b = zenoh_pair
     pub = a.create_node("map_server").create_publisher(Int32, "/map", pub_qos)
     for i in range(5):
         pub.publish(Int32(data=i))
@@ -70,8 +54,8 @@ def test_transient_local_late_joiner_gets_the_last_depth_samples_across_the_wire
     assert got == want
 
 
-def test_local_subscription_gets_each_sample_once_and_the_remote_one_too(two):
-    a, b = two
+def test_local_subscription_gets_each_sample_once_and_the_remote_one_too(zenoh_pair):
+    a, b = zenoh_pair
     na, nb = a.create_node("talker"), b.create_node("remote")
     local, remote = [], []
     na.create_subscription(Int32, "/n", lambda m: local.append(m.data), 100)
@@ -87,8 +71,8 @@ def test_local_subscription_gets_each_sample_once_and_the_remote_one_too(two):
     assert local == list(range(20)) and remote == list(range(20))   # not doubled by zenoh
 
 
-def test_best_effort_and_depth_travel_in_the_token(two):
-    a, b = two
+def test_best_effort_and_depth_travel_in_the_token(zenoh_pair):
+    a, b = zenoh_pair
     be = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT)
     a.create_node("sensor").create_publisher(Int32, "/scan", be)
     assert b.transport.wait_for(lambda t: _remote(t, "MP", "/scan"))
@@ -97,8 +81,8 @@ def test_best_effort_and_depth_travel_in_the_token(two):
     assert (e.qos.reliability, e.qos.depth) == (ReliabilityPolicy.BEST_EFFORT, 5)
 
 
-def test_destroyed_publisher_token_is_withdrawn_and_sends_nothing(two):
-    a, b = two
+def test_destroyed_publisher_token_is_withdrawn_and_sends_nothing(zenoh_pair):
+    a, b = zenoh_pair
     na, nb = a.create_node("talker"), b.create_node("listener")
     pub = na.create_publisher(Int32, "/n", 10)
     got = []
@@ -132,8 +116,8 @@ def test_qos_maps_to_zenoh_as_rmw_zenoh_does(history, reliability, durability, d
     assert HEARTBEAT_PERIOD == 0.5
 
 
-def test_congestion_control_and_reliability_on_the_wire(two):
-    a, b = two
+def test_congestion_control_and_reliability_on_the_wire(zenoh_pair):
+    a, b = zenoh_pair
     seen = {}
     raw = b.transport.session.declare_subscriber(
         "0/**", lambda s: seen.setdefault(str(s.key_expr).split("/")[1], s.congestion_control))
@@ -157,10 +141,10 @@ def test_congestion_control_and_reliability_on_the_wire(two):
                    "ka_be": zenoh.Reliability.BEST_EFFORT, "kl_be": zenoh.Reliability.BEST_EFFORT}
 
 
-def test_reliable_transient_local_publisher_sends_sporadic_miss_detection_heartbeats(two):
+def test_reliable_transient_local_publisher_sends_sporadic_miss_detection_heartbeats(zenoh_pair):
     """zenoh-ext's heartbeat travels on ``<key>/@adv/pub/<zid>/<eid>/...`` carrying the last
     sequence number; sporadic: once per 0.5 s period, and only after a publication."""
-    a, b = two
+    a, b = zenoh_pair
     node = a.create_node("latched")
     rel = node.create_publisher(Int32, "/rel_tl", QoSProfile(depth=2, durability=TRANSIENT_LOCAL))
     be = node.create_publisher(Int32, "/be_tl", QoSProfile(depth=2, durability=TRANSIENT_LOCAL,
@@ -183,8 +167,8 @@ def test_reliable_transient_local_publisher_sends_sporadic_miss_detection_heartb
     assert struct.unpack("<I", payload) == (0,)   # the first sample's sequence number
 
 
-def test_a_peer_with_another_type_on_our_name_never_communicates_and_is_named(two):
-    a, b = two
+def test_a_peer_with_another_type_on_our_name_never_communicates_and_is_named(zenoh_pair):
+    a, b = zenoh_pair
     pub = a.create_node("int_talker").create_publisher(Int32, "/chatter", 10)
     listener = b.create_node("listener")
     got = []

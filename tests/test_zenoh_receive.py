@@ -2,42 +2,14 @@
 sample of a flood arrives, in order, each a value of its own, whatever the executor and the
 receive path do to go faster."""
 
-import socket
 import time
 
-import pytest
+from test_zenoh_qos import _spin
 
-from robocourse.bus.context import Context
-from robocourse.bus.executors import SingleThreadedExecutor
 from robocourse.bus.qos import HistoryPolicy, QoSProfile
-from robocourse.bus.zenoh.transport import router
 from robocourse.msgs.std_msgs import Int32
 
 KEEP_ALL = QoSProfile(depth=10, history=HistoryPolicy.KEEP_ALL)
-
-
-@pytest.fixture
-def two():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        ep = f"tcp/127.0.0.1:{s.getsockname()[1]}"
-    r = router([ep])
-    a = Context(transport="zenoh", connect=[ep])
-    b = Context(transport="zenoh", connect=[ep])
-    yield a, b
-    a.try_shutdown()
-    b.try_shutdown()
-    r.close()
-
-
-def _spin(ctx, node, cond, timeout=20.0):
-    ex = SingleThreadedExecutor(context=ctx)
-    ex.add_node(node)
-    end = time.monotonic() + timeout
-    while time.monotonic() < end and not cond():
-        ex.spin_once(timeout_sec=0.02)
-    ex.remove_node(node)
-    return cond()
 
 
 def _matched(a, topic):
@@ -46,8 +18,8 @@ def _matched(a, topic):
     time.sleep(0.2)
 
 
-def test_a_burst_arrives_whole_in_order_and_each_sample_is_its_own_value(two):
-    a, b = two
+def test_a_burst_arrives_whole_in_order_and_each_sample_is_its_own_value(zenoh_pair):
+    a, b = zenoh_pair
     nb = b.create_node("listener")
     got = []
     nb.create_subscription(Int32, "/burst", got.append, KEEP_ALL)
@@ -57,7 +29,7 @@ def test_a_burst_arrives_whole_in_order_and_each_sample_is_its_own_value(two):
     for i in range(2000):           # one object, changed after each publish
         msg.data = i
         pub.publish(msg)
-    assert _spin(b, nb, lambda: len(got) == 2000)
+    assert _spin(b, nb, lambda: len(got) == 2000, timeout=20.0)
     assert [m.data for m in got] == list(range(2000))
     assert len({id(m) for m in got}) == 2000
     got[0].data = -1                # a received message is the subscriber's own
