@@ -7,8 +7,8 @@ CPU. The test checks that it completes, and that every claim it rendered
 rebuilt from the inputs stored in the output's metadata and must give the same verdict and the
 same sentence, and that sentence must be what the notebook showed.
 
-This is the one CI run of the chapters (``pyproject.toml``'s ``testpaths`` lists ``solutions``
-for nbmake, not ``chapters``): a chapter that completes under load completes quiet, and running
+This is the one CI run of the chapters (``pyproject.toml``'s ``testpaths`` hand no notebook to
+nbmake): a chapter that completes under load completes quiet, and running
 them twice would double the suite's biggest cost. ``pytest chapters/01_realtime_basics.ipynb``
 still runs one quiet with nbmake. In a parallel run (pytest-xdist) each loaded chapter is a unit
 of its own, beside the other tests: every test must pass with two busy processes beside it, and
