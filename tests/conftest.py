@@ -88,6 +88,18 @@ def _run_folder(testrunuid: str) -> Path:
     return Path(tempfile.gettempdir()) / f"robocourse-pytest-{testrunuid}"
 
 
+@pytest.fixture(scope="session")
+def run_folder(request, tmp_path_factory) -> Path:
+    """A folder every xdist worker of this run shares (the controller removes it at the end); in a run
+    without workers, one of this process's own."""
+    workerinput = getattr(request.config, "workerinput", None)
+    if workerinput is None:
+        return tmp_path_factory.mktemp("run")
+    folder = _run_folder(workerinput["testrunuid"])
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
 def _unit(nodeid: str) -> str:
     """The unit of a test id: the one its collection decided, else its module or notebook (or the
     ``@group`` suffix an older xdist ``loadgroup`` puts on the id)."""
