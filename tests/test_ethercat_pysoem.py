@@ -116,7 +116,7 @@ def test_our_master_over_raw_ethernet_scans_the_bus_like_slaveinfo():
     from robocourse.ethercat.transport import serve
 
     bus = demo_bus()
-    with VethPair("s") as v:
+    with VethPair() as v:            # named after this process: a fixed name would be shared by concurrent runs
         server = serve(bus, v.bus_if)
         try:
             r = v.run([sys.executable, "-m", "robocourse.cli", "ethercat", "slaveinfo",
