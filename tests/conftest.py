@@ -71,9 +71,33 @@ def root() -> Path:
     return ROOT
 
 
+@pytest.fixture(autouse=True)
+def _scheduling_given_back():
+    """Every test leaves this worker's scheduling as it found it. libfranka's Robot() (pylibfranka)
+    raises the constructing thread to SCHED_FIFO 99 as root and keeps it there (upstream
+    behaviour, tests/test_drivers_scheduling.py); a worker left at 99 would run every later test
+    ahead of the boxes and the kernel's own threads on its CPU."""
+    from robocourse.rt import settings
+
+    with settings.scheduling_kept():
+        yield
+
+
 def _run_folder(testrunuid: str) -> Path:
     """This run's shared folder: the serial lock and each worker's unit map."""
     return Path(tempfile.gettempdir()) / f"robocourse-pytest-{testrunuid}"
+
+
+@pytest.fixture(scope="session")
+def run_folder(request, tmp_path_factory) -> Path:
+    """A folder every xdist worker of this run shares (the controller removes it at the end); in a run
+    without workers, one of this process's own."""
+    workerinput = getattr(request.config, "workerinput", None)
+    if workerinput is None:
+        return tmp_path_factory.mktemp("run")
+    folder = _run_folder(workerinput["testrunuid"])
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
 
 
 def _unit(nodeid: str) -> str:

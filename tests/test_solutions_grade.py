@@ -1,4 +1,9 @@
-"""Every solution notebook scores full marks; every generated exercise scores zero, cleanly.
+"""Every solution notebook scores full marks and runs every cell without error; every generated
+exercise scores zero, cleanly.
+
+This is the suite's one run of the solutions (``pyproject.toml``'s testpaths no longer hand them
+to nbmake as well, issue 31): the grader executes every code cell in order, so a cell that raises,
+times out or stops the run fails here, named, as it failed nbmake.
 
 The solutions whose assignment has a check that judges real time (a timing check of the
 registry, or an exercise its bank marks ``timing=True``: chapter 5's 1 kHz Franka and 500 Hz UR
@@ -51,9 +56,11 @@ def test_the_real_time_solutions_are_known():
 
 @pytest.mark.parametrize("name", [pytest.param(p.stem, marks=[pytest.mark.serial] if p.stem in TIMED else [])
                                   for p in SOLUTIONS])
-def test_solution_scores_full_marks(name):
+def test_solution_scores_full_marks_and_every_cell_runs(name):
     g = grades(name in TIMED)[("solutions", name)]
     assert g.max_points > 0 and g.points == g.max_points, g.feedback()
+    assert g.status == "", g.status              # it ran to its last cell: no time limit, no crash
+    assert not g.errors, "\n".join(g.errors)    # "cell N: Type: message" of every cell that raised
 
 
 @pytest.mark.parametrize("name", [p.stem for p in SOLUTIONS])

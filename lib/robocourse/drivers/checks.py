@@ -34,7 +34,6 @@ from robocourse.grading.schema import Any, Dict, List, Map, Number, Opt, Str
 from . import franka_wire as fw
 from .franka_probes import PAUSE_MS, PAUSES, SECONDS, STALL_MS, franka_loop_probe
 
-
 PAUSE_GAP_S = 0.05      # s of robot time at least between two pauses (each moves the robot's clock by up to 14 ms)
 
 
