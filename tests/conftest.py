@@ -75,6 +75,18 @@ def root() -> Path:
     return ROOT
 
 
+@pytest.fixture(autouse=True)
+def _scheduling_given_back():
+    """Every test leaves this worker's scheduling as it found it. libfranka's Robot() (pylibfranka)
+    raises the constructing thread to SCHED_FIFO 99 as root and keeps it there (upstream
+    behaviour, tests/test_drivers_scheduling.py); a worker left at 99 would run every later test
+    ahead of the boxes and the kernel's own threads on its CPU."""
+    from robocourse.rt import settings
+
+    with settings.scheduling_kept():
+        yield
+
+
 def _run_folder(testrunuid: str) -> Path:
     """This run's shared folder: the serial lock and each worker's unit map."""
     return Path(tempfile.gettempdir()) / f"robocourse-pytest-{testrunuid}"

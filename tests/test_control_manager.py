@@ -65,21 +65,39 @@ def test_controller_lifecycle_updates_only_while_active():
 
 def test_switch_in_realtime_mode_waits_for_the_loop_and_applies_at_the_end_of_an_update():
     cm = make_cm(update_rate=200)
-    c = add(cm, "c", TestController([P1]))
+
+    class Seen(TestController):
+        """Which cycle activated it, on which thread, and the cycle of each update (cm.cycles counts
+        the cycles completed; the switch is applied at the end of an update, before that cycle counts)."""
+
+        def on_activate(self, s):
+            self.activated = (cm.cycles, threading.current_thread())
+            return super().on_activate(s)
+
+        def update(self, time, period):
+            self.cycles_seen.append(cm.cycles)
+            return super().update(time, period)
+
+    c = add(cm, "c", Seen([P1]))
+    c.cycles_seen = []
     result = {}
 
     def switcher():
         time.sleep(0.05)
-        result["ret"] = cm.switch_controller(["c"], [], STRICT, timeout=2.0)
-        result["updates_at_return"] = len(c.updates)
+        result["ret"] = cm.switch_controller(["c"], [], STRICT, timeout=5.0)
+        result["active_at_return"] = state(cm, "c")
 
     t = threading.Thread(target=switcher)
     t.start()
+    loop_thread = threading.current_thread()
     cm.run_realtime(0.3)
     t.join()
-    assert result["ret"] == return_type.OK
-    assert result["updates_at_return"] <= 1            # not updated in the cycle that activated it
-    assert state(cm, "c") == ACTIVE and len(c.updates) >= 10
+    assert result["ret"] == return_type.OK and result["active_at_return"] == ACTIVE   # it waited for the loop
+    activated_in, thread = c.activated
+    assert thread is loop_thread                       # the loop applied it, not the caller's thread
+    # never updated in the cycle that activated it; updated in the very next one, and every one after
+    assert c.cycles_seen[0] == activated_in + 1, (activated_in, c.cycles_seen[:3])
+    assert c.cycles_seen == list(range(activated_in + 1, cm.cycles))
 
 
 def test_switch_times_out_when_the_loop_is_stalled():

@@ -39,6 +39,7 @@ from __future__ import annotations
 import numpy as np
 
 from robocourse.control.hardware.types import CallbackReturn, return_type
+from robocourse.rt import settings
 
 from . import franka_wire as fw
 from .fr3_arm import FR3_JOINTS
@@ -74,7 +75,11 @@ class FrankaStyleSystem(_BoxSystem):
         import pylibfranka
 
         ip = self.robot_ip or self.box.host
-        self.robot = pylibfranka.Robot(ip, pylibfranka.RealtimeConfig.kIgnore)
+        # libfranka's Robot() raises the constructing thread (here the controller manager's caller,
+        # often a notebook kernel) to SCHED_FIFO 99 when allowed and keeps it there; the manager's
+        # loop sets its own priority (rt.settings), so the thread gets its policy back at once
+        with settings.scheduling_kept():
+            self.robot = pylibfranka.Robot(ip, pylibfranka.RealtimeConfig.kIgnore)
         return self.robot
 
     def on_configure(self, previous_state):

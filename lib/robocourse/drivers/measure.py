@@ -84,6 +84,11 @@ def franka_roundtrip(seconds: float = 2.0, *, physics: bool = True, realtime: bo
     of lost cycles here (no reflex) so the whole run is measured; ``max_lost_in_row`` tells
     whether the robot's limit (20) would have stopped it.
 
+    libfranka's ``Robot()`` raises the thread that constructs it to SCHED_FIFO 99 when the kernel
+    allows (root, or an rtprio limit of 99), even with ``RealtimeConfig.kIgnore``, and leaves it
+    there; this function gives the thread its policy back at once, so a row without ``realtime``
+    measures the default scheduler for root too.
+
     ``around``: a context manager entered for the client's loop only, once the box is up and the
     client connected (e.g. ``CpuLoad(processes=2)``): a disturbance of the loop, not of the box's
     start-up.
@@ -100,7 +105,8 @@ def franka_roundtrip(seconds: float = 2.0, *, physics: bool = True, realtime: bo
     box = start_franka_box(max_lost=10 ** 9, physics=physics)
     applied = ""
     try:
-        robot = pylibfranka.Robot(box.host, pylibfranka.RealtimeConfig.kIgnore)
+        with settings.scheduling_kept():   # libfranka's Robot() raises this thread to SCHED_FIFO 99 if allowed
+            robot = pylibfranka.Robot(box.host, pylibfranka.RealtimeConfig.kIgnore)
         q0 = list(robot.read_once().q)
         ctx = (settings.realtime(priority=priority, quiet=True, heap_size=16 * 1024 * 1024) if realtime
                else contextlib.nullcontext())

@@ -139,6 +139,26 @@ def reset_scheduling(policy: str = "SCHED_OTHER", priority: int = 0) -> None:
         os.sched_setscheduler(0, pol, os.sched_param(priority if pol != os.SCHED_OTHER else 0))
 
 
+@contextlib.contextmanager
+def scheduling_kept():
+    """Give the calling thread its policy and priority back after the block; say what the block set.
+
+    For client libraries that raise the thread themselves: libfranka's ``Robot`` constructor (and
+    pylibfranka's) asks SCHED_FIFO at the highest priority, 99, for the thread that constructs it,
+    whatever its RealtimeConfig (kIgnore only means a refusal is not an error), and never gives it
+    back. Yields a dict; on exit it holds ``before`` and ``set`` ((policy, priority) pairs) and
+    ``changed`` (bool). Lowering a thread's priority is always allowed, so this needs no privilege.
+    """
+    seen: dict = {"before": current_scheduling()}
+    try:
+        yield seen
+    finally:
+        seen["set"] = current_scheduling()
+        seen["changed"] = seen["set"] != seen["before"]
+        if seen["changed"]:
+            reset_scheduling(*seen["before"])
+
+
 # -- affinity ---------------------------------------------------------------------------------
 
 def set_affinity(cpus, quiet: bool = False) -> SettingReport:
