@@ -2,9 +2,14 @@
 
 ``python -m robocourse.ethercat.pysoem_probe IFNAME --cycles 1000`` does what SOEM's
 simple_test does (config_init, config_map, config_dc, SAFE_OP, OP while exchanging process
-data), then ``--cycles`` exchanges, counting the working counters, writing a counter to the
-first 1-byte output slave and walking the first CiA 402 drive (13 output bytes) to Operation
-enabled with ethercat_driver_ros2's automatic transitions. It times every round trip.
+data), then exchanges until ``--cycles`` of them were answered, counting the working counters,
+writing a counter to the first 1-byte output slave and walking the first CiA 402 drive (13
+output bytes) to Operation enabled with ethercat_driver_ros2's automatic transitions. It times
+every round trip. A frame not back within ``--ret-timeout-us`` (SOEM's EC_NOFRAME, -1: the bus's
+process did not run in time on a loaded machine) is counted in ``wkc_lost`` and the exchange
+repeated, as a cyclic application carries on after a lost frame; at most ``max(cycles, 1000)``
+of them, so a dead bus ends the run. A frame that came back with a wrong working counter counts
+in ``wkc_values``, never as lost.
 It is a separate process so a hang in SOEM cannot block the caller (run it with a timeout).
 """
 
@@ -15,6 +20,9 @@ import json
 import struct
 import sys
 import time
+
+#: SOEM's return for a frame that did not come back within the timeout (ethercattype.h)
+EC_NOFRAME = -1
 
 
 def _auto_cw(sw: int, cw: int) -> int:
@@ -78,8 +86,8 @@ def main(argv: list[str] | None = None) -> int:
         rep["al_status_codes"] = [s.al_status for s in m.slaves]
         do = next((s for s in m.slaves if len(s.output) == 1), None)
         drive = next((s for s in m.slaves if len(s.output) == 13), None)
-        wkcs, rtt, cw = [], [], 0
-        for k in range(a.cycles):
+        wkcs, rtt, cw, k, lost = [], [], 0, 0, 0
+        while len(wkcs) < a.cycles and lost < max(a.cycles, 1000):
             if do is not None:
                 do.output = bytes([k & 0xFF])
             if drive is not None:
@@ -88,8 +96,14 @@ def main(argv: list[str] | None = None) -> int:
                 drive.output = struct.pack("<HiihB", cw, pos, 0, 0, 8)
             t0 = time.perf_counter_ns()
             m.send_processdata()
-            wkcs.append(m.receive_processdata(a.ret_timeout_us))
+            wkc = m.receive_processdata(a.ret_timeout_us)
             rtt.append(time.perf_counter_ns() - t0)
+            k += 1
+            if wkc == EC_NOFRAME:
+                lost += 1
+            else:
+                wkcs.append(wkc)
+        rep["wkc_lost"] = lost
         rep["wkc_ok"] = sum(w == m.expected_wkc for w in wkcs)
         rep["wkc_values"] = sorted(set(wkcs))
         rep["rtt_ns"] = rtt
