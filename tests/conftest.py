@@ -11,6 +11,10 @@ Parallel runs (``make test`` runs pytest-xdist: ``-n $(TEST_JOBS) --dist loadgro
   pytest's cache; in a clean clone, as CI's, the seconds of a full run committed in
   tests/unit_seconds.json; for tests never timed, notebooks and ``slow`` tests first), so no
   long unit starts last.
+- ``@pytest.mark.early`` starts a test's unit before every unit without it (longest first among
+  them): units that share something costly while they run go side by side. The loaded chapters
+  share one ``CpuLoad`` (tests/test_chapters_under_load.py): run together at the start, its busy
+  processes spin for about a third of the chapters' summed time, not for most of the run.
 - ``@pytest.mark.serial`` (or ``pytestmark = pytest.mark.serial`` for a whole module) runs a
   test alone: no other test of this run is running while it runs. Use it for a test that is
   timing-sensitive by nature (a 1 kHz loop with a success-rate threshold, a jitter comparison),
@@ -163,10 +167,13 @@ def pytest_collection_modifyitems(config, items):
     known: dict[str, float] = defaultdict(float)
     guessed: dict[str, float] = defaultdict(float)
     first_seen: dict[str, int] = {}
+    early: set[str] = set()
     units = {}
     for i, item in enumerate(items):
         unit = units[item] = _item_unit(item)
         first_seen.setdefault(unit, i)
+        if item.get_closest_marker("early") is not None:
+            early.add(unit)
         entry = seconds.get(item.nodeid)
         if isinstance(entry, list) and len(entry) == 2:
             known[unit] += float(entry[1])
@@ -174,8 +181,9 @@ def pytest_collection_modifyitems(config, items):
             guessed[unit] += guess(item)
     cost = {unit: known[unit] + guessed[unit] if unit in known else fallback.get(unit, guessed[unit])
             for unit in first_seen}
-    # serial tests last; the rest by unit, longest first; order inside a unit kept
-    items.sort(key=lambda it: (units[it] == SERIAL_GROUP, -cost[units[it]], first_seen[units[it]]))
+    # serial tests last; the early units first; the rest by unit, longest first; order inside a unit kept
+    items.sort(key=lambda it: (units[it] == SERIAL_GROUP, units[it] not in early, -cost[units[it]],
+                               first_seen[units[it]]))
 
 
 @pytest.hookimpl(tryfirst=True)
@@ -338,15 +346,10 @@ def progress_updates(monkeypatch):
 def zenoh_pair():
     """Two zenoh contexts (two sessions, as two processes would have) joined by a zenoh router
     on a free loopback port; shut down after the test."""
-    import socket
-
     from robocourse.bus.context import Context
-    from robocourse.bus.zenoh.transport import router
+    from robocourse.bus.zenoh.processes import free_router
 
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        ep = f"tcp/127.0.0.1:{s.getsockname()[1]}"
-    r = router([ep])
+    r, ep = free_router()
     a = Context(transport="zenoh", connect=[ep])
     b = Context(transport="zenoh", connect=[ep])
     yield a, b

@@ -137,8 +137,9 @@ def test_known_load_failures_are_chapters():
 
 @pytest.mark.slow
 @pytest.mark.timeout(600)
-@pytest.mark.parametrize("notebook", [
-    pytest.param(nb, marks=pytest.mark.serial if nb in KNOWN_LOAD_FAILURES else pytest.mark.xdist_group(nb))
+@pytest.mark.parametrize("notebook", [   # early: side by side, under one shared load (tests/conftest.py)
+    pytest.param(nb, marks=pytest.mark.serial if nb in KNOWN_LOAD_FAILURES
+                 else [pytest.mark.xdist_group(nb), pytest.mark.early])
     for nb in CHAPTERS])
 def test_chapter_completes_under_load_and_its_claims_match_its_data(notebook, run_folder):
     loaded = notebook not in KNOWN_LOAD_FAILURES

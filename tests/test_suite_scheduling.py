@@ -26,6 +26,7 @@ HERE = Path(__file__).resolve().parent
 _INI = """[pytest]
 testpaths = tests
 markers =
+    early: first
     serial: alone
     slow: slow
     xdist_group(name): group
@@ -147,9 +148,14 @@ def test_a_clean_clone_orders_units_by_the_committed_seconds_and_the_cache_wins_
     (project / "tests").mkdir(parents=True)
     (project / "pytest.ini").write_text(_INI)
     shutil.copy(HERE / "conftest.py", project / "tests" / "conftest.py")
-    for name in "abc":
-        (project / "tests" / f"test_mod_{name}.py").write_text(
-            f"import time\n\ndef test_one():\n    time.sleep({0.3 if name == 'a' else 0.0})\n")
+    for name in "bc":
+        (project / "tests" / f"test_mod_{name}.py").write_text("def test_one():\n    pass\n")
+    # a takes longer than c and b together, whatever the load (a no-op took more than a fixed 0.3 s once on a
+    # loaded machine): its module is imported at collection, before any test runs, and its test sleeps at least
+    # as long as everything since then (c and b run first, in the committed order)
+    (project / "tests" / "test_mod_a.py").write_text(
+        "import time\n\nCOLLECTED = time.monotonic()\n\n\ndef test_one():\n"
+        "    time.sleep(max(0.3, 2 * (time.monotonic() - COLLECTED)))\n")
     (project / "tests" / "test_serial.py").write_text(
         "import pytest\npytestmark = pytest.mark.serial\n\ndef test_alone():\n    pass\n")
     (project / "tests" / "unit_seconds.json").write_text(
@@ -166,6 +172,27 @@ def test_a_clean_clone_orders_units_by_the_committed_seconds_and_the_cache_wins_
 
     first = ["test_mod_c.py", "test_mod_b.py", "test_mod_a.py", "test_serial.py"]
     assert order("--collect-only") == first
-    order()                                     # a run: a took 0.3 s here, b and c ~0
+    order()                                     # a run: a took longer than b and c here
     after = order("--collect-only")
     assert after[0] == "test_mod_a.py" and after[-1] == "test_serial.py", after
+
+
+def test_early_units_start_first_longest_first_among_them_and_serial_tests_stay_last(tmp_path):
+    project = tmp_path / "scratch"
+    (project / "tests").mkdir(parents=True)
+    (project / "pytest.ini").write_text(_INI)
+    shutil.copy(HERE / "conftest.py", project / "tests" / "conftest.py")
+    for name, mark in (("a", ""), ("c", ""), ("e1", "early"), ("e2", "early"), ("s", "serial")):
+        head = f"import pytest\npytestmark = pytest.mark.{mark}\n\n" if mark else ""
+        (project / "tests" / f"test_mod_{name}.py").write_text(head + "def test_one():\n    pass\n")
+    (project / "tests" / "unit_seconds.json").write_text(
+        '{"tests/test_mod_a.py": 1, "tests/test_mod_c.py": 30, "tests/test_mod_e1.py": 0.5, '
+        '"tests/test_mod_e2.py": 2, "serial": 99}')
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith(("PYTEST_XDIST_", "PYTEST_CURRENT_TEST", "PYTEST_ADDOPTS"))}
+    env["PYTEST_DISABLE_PLUGIN_AUTOLOAD"] = "1"
+    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--collect-only"],
+                          cwd=project, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    order = [line.split("::")[0].rsplit("/", 1)[-1] for line in done.stdout.splitlines() if "::" in line]
+    assert order == ["test_mod_e2.py", "test_mod_e1.py", "test_mod_c.py", "test_mod_a.py", "test_mod_s.py"], order
