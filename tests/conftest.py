@@ -346,15 +346,10 @@ def progress_updates(monkeypatch):
 def zenoh_pair():
     """Two zenoh contexts (two sessions, as two processes would have) joined by a zenoh router
     on a free loopback port; shut down after the test."""
-    import socket
-
     from robocourse.bus.context import Context
-    from robocourse.bus.zenoh.transport import router
+    from robocourse.bus.zenoh.processes import free_router
 
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        ep = f"tcp/127.0.0.1:{s.getsockname()[1]}"
-    r = router([ep])
+    r, ep = free_router()
     a = Context(transport="zenoh", connect=[ep])
     b = Context(transport="zenoh", connect=[ep])
     yield a, b

@@ -5,7 +5,6 @@ independently of robocourse)."""
 
 import hashlib
 import json
-import socket
 import struct
 import threading
 import time
@@ -200,12 +199,6 @@ def test_switches_turn_the_builtins_off():
 
 
 # ------------------------------------------------------------------- over zenoh, plain peer
-def _free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def _att(seq, gid):
     return struct.pack("<qqB16s", seq, time.time_ns(), 16, gid)
 
@@ -224,10 +217,9 @@ def test_a_plain_zenoh_peer_sees_and_uses_the_node_services():
     zenoh = pytest.importorskip("zenoh")
     from mcap_ros2._dynamic import generate_dynamic, serialize_dynamic
 
-    from robocourse.bus.zenoh.transport import router
+    from robocourse.bus.zenoh.processes import free_router
 
-    ep = f"tcp/127.0.0.1:{_free_port()}"
-    r = router([ep])
+    r, ep = free_router()
     ctx = Context(transport="zenoh", connect=[ep])
     ctx.log_to_stderr = False
     conf = zenoh.Config()

@@ -150,8 +150,14 @@ def test_two_executors_on_two_threads_are_fine():
     ticks = {"a": 0, "b": 0}
     na.create_timer(0.001, lambda: ticks.__setitem__("a", ticks["a"] + 1))
     nb.create_timer(0.001, lambda: ticks.__setitem__("b", ticks["b"] + 1))
-    th = threading.Thread(target=a.spin_for, args=(0.05,))
+    def spin(ex, key):  # 50 ms windows until its timer ran (a fixed window is a timed assertion; 60 s safety net)
+        end = time.monotonic() + 60
+        ex.spin_for(0.05)
+        while ticks[key] < 1 and time.monotonic() < end:
+            ex.spin_for(0.05)
+
+    th = threading.Thread(target=spin, args=(a, "a"))
     th.start()
-    b.spin_for(0.05)
-    th.join(10)
+    spin(b, "b")
+    th.join(70)
     assert ticks["a"] >= 1 and ticks["b"] >= 1

@@ -22,7 +22,7 @@ import rtde_control  # noqa: E402
 import rtde_io  # noqa: E402
 
 from robocourse.drivers import rtde, start_ur_box  # noqa: E402
-from robocourse.drivers.ur_box import read_stats  # noqa: E402
+from robocourse.drivers.ur_box import read_stats, read_trace  # noqa: E402
 
 HOME = [0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0]
 
@@ -181,12 +181,15 @@ def test_movej_reaches_the_pose_and_async_reports_progress(fresh_box):
     try:
         goal = list(np.array(HOME) + [0.4, -0.2, 0.3, 0.0, 0.2, -0.3])
         assert c.moveJ(goal, 1.05, 1.4)                   # blocks until the robot is there
-        np.testing.assert_allclose(r.getTargetQ(), goal, atol=1e-12)
+        # the receive interface's stream is its own connection: the package showing the final tick may
+        # still be on its way when moveJ returns (a loaded machine delayed it: 7.6e-7 rad short, 2 runs in 4)
+        assert wait_for(lambda: np.allclose(r.getTargetQ(), goal, rtol=1e-7, atol=1e-12), 5.0), r.getTargetQ()
         assert wait_for(lambda: np.max(np.abs(np.array(r.getActualQ()) - goal)) < 2e-3, 2.0)
-        assert c.moveJ(HOME, 1.05, 1.4, True)             # asynchronous: returns at once
-        assert wait_for(lambda: c.getAsyncOperationProgress() >= 0, 1.0)
-        assert wait_for(lambda: c.getAsyncOperationProgress() < 0, 5.0)
-        np.testing.assert_allclose(r.getTargetQ(), HOME, atol=1e-12)
+        # asynchronous: returns at once; slow (about 2 s), so a test held off the CPU still sees it under way
+        assert c.moveJ(HOME, 0.2, 1.4, True)
+        assert wait_for(lambda: c.getAsyncOperationProgress() >= 0, 1.5)
+        assert wait_for(lambda: c.getAsyncOperationProgress() < 0, 10.0)
+        assert wait_for(lambda: np.allclose(r.getTargetQ(), HOME, rtol=1e-7, atol=1e-12), 5.0), r.getTargetQ()
     finally:
         c.stopScript()
         c.disconnect()
@@ -194,21 +197,34 @@ def test_movej_reaches_the_pose_and_async_reports_progress(fresh_box):
 
 
 def test_servoj_trajectory_at_500_hz_is_tracked_within_50_mrad(fresh_box):
-    r = rtde_receive.RTDEReceiveInterface(fresh_box.host, 500.0, ["actual_q", "target_q"])
+    """The arm follows a 500 Hz servoJ stream within 50 mrad of the target it last received, judged in the box's
+    own ticks (its trace), so a machine that stalls this process or the box cannot fail it: the path is sampled
+    at k * 2 ms and each target waits for a box tick after the previous one (a stall pauses the stream; a
+    wall-clock path would jump ahead by the stall, 0.31 rad once under load)."""
+    r = rtde_receive.RTDEReceiveInterface(fresh_box.host, 500.0, ["timestamp", "actual_q", "target_q"])
     c = control(fresh_box.host)
     try:
         q0 = np.array(r.getActualQ())
-        err = []
-        start = time.monotonic()
-        while (t := time.monotonic() - start) < 1.5:
+        n, dt = 750, 0.002                  # 1.5 s of path
+        t_start = time.monotonic()
+        for k in range(n):
             t_cycle = c.initPeriod()
+            t = k * dt
             target = q0 + [0.3 * math.sin(math.pi * t), -0.2 * t / 1.5, 0, 0, 0, 0]
+            stamp = r.getTimestamp()
             assert c.servoJ(list(target), 0.0, 0.0, 0.002, 0.03, 2000)
-            err.append(np.max(np.abs(target - r.getActualQ())))
             c.waitPeriod(t_cycle)
+            deadline = time.monotonic() + 10.0
+            while r.getTimestamp() <= stamp:         # no box tick since the last target: wait for one
+                assert time.monotonic() < deadline, "the box stopped ticking"
+                time.sleep(0.0002)
         assert c.servoStop(10.0)         # answers at once, as ur_rtde's script does; the arm then decelerates
+        trace = read_trace(fresh_box.host)
+        t_box = np.asarray(trace["t"])
+        servo = (np.asarray(trace["servo"])[:, 0] > 0) & (t_box >= t_start)
+        err = np.max(np.abs(np.asarray(trace["q"]) - np.asarray(trace["sent"])), axis=1)[servo]
         # lookahead 0.03 s on a target moving at most 0.94 rad/s: about 30 mrad of lag, the stated bound 50
-        assert max(err[50:]) < 0.05, max(err[50:])
+        assert len(err) > 300 and max(err[50:]) < 0.05, (len(err), max(err[50:]))
         assert wait_for(lambda: read_stats(fresh_box.host)["motion"] == "hold", 2.0)
         stats = read_stats(fresh_box.host)
         assert stats["cmd_servoj"] > 300 and stats["cmd_servo_stop"] == 1 and stats.get("watchdog_stops", 0) == 0
@@ -240,14 +256,16 @@ def test_watchdog_stops_the_program_when_the_client_stalls_and_a_reupload_recove
     r = rtde_receive.RTDEReceiveInterface(fresh_box.host)
     c = control(fresh_box.host)
     try:
-        assert c.setWatchdog(10.0)                         # input_int_register_0 at >= 10 Hz, else stop
+        # input_int_register_0 at >= 1 Hz, else stop: a window a loaded machine never stretches one cycle of this
+        # loop past (at 10 Hz, a 100 ms hold-off of this process fired the watchdog mid-loop: 2 runs in 5 under load)
+        assert c.setWatchdog(1.0)
         q = np.array(r.getActualQ())
         for k in range(100):                               # 0.2 s of servoJ: each one updates the register
             t_cycle = c.initPeriod()
             assert c.servoJ(list(q + [0.001 * k, 0, 0, 0, 0, 0]), 0.0, 0.0, 0.002, 0.1, 300)
             c.waitPeriod(t_cycle)
         assert c.isProgramRunning()
-        time.sleep(0.35)                                   # the stall: > 100 ms without an update
+        time.sleep(2.0)                                    # the stall: > 1 s without an update
         assert not c.isProgramRunning() and r.getRuntimeState() == 1
         assert not c.servoJ(list(q), 0.0, 0.0, 0.002, 0.1, 300)     # ur_rtde: the script is not running
         stats = read_stats(fresh_box.host)
@@ -502,7 +520,8 @@ def test_the_other_supported_control_calls(fresh_box):
     c = control(fresh_box.host)
     try:
         assert c.getRobotStatus() == 3                                 # power on + program running
-        assert c.getStepTime() == pytest.approx(0.002) or c.getStepTime() == 0.0   # RT: read before the reply
+        step = c.getStepTime()                                        # one read: two may straddle the reply
+        assert step == pytest.approx(0.002) or step == 0.0              # RT: read before the reply
         assert c.setTcp([0, 0, 0.1, 0, 0, 0])
         assert c.getTCPOffset() == pytest.approx([0, 0, 0.1, 0, 0, 0])
         assert_same_pose(c.getForwardKinematics(), r.getActualTCPPose())

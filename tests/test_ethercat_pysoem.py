@@ -37,7 +37,7 @@ def test_soem_scans_maps_and_runs_our_bus_in_op_for_1000_cycles(tmp_path):
     assert rep["config_dc"] is True
     assert rep["safeop"] == 4 and rep["op"] == 8
     assert rep["states"] == [8, 8, 8, 8]
-    assert rep["wkc_ok"] == 1000 and rep["wkc_values"] == [6]
+    assert rep["wkc_ok"] == 1000 and rep["wkc_values"] == [6], (rep["wkc_ok"], rep["wkc_values"], rep["wkc_lost"])
     # inputs at the master: the DI byte, the drive enabled by CiA 402 transitions
     assert rep["inputs"][1] == "3c"
     assert rep["drive_statusword"] & 0x6F == 0x27
@@ -116,7 +116,7 @@ def test_our_master_over_raw_ethernet_scans_the_bus_like_slaveinfo():
     from robocourse.ethercat.transport import serve
 
     bus = demo_bus()
-    with VethPair("s") as v:
+    with VethPair() as v:            # named after this process: a fixed name would be shared by concurrent runs
         server = serve(bus, v.bus_if)
         try:
             r = v.run([sys.executable, "-m", "robocourse.cli", "ethercat", "slaveinfo",
@@ -192,6 +192,6 @@ def test_soem_brings_up_slaves_made_from_an_sii_image_and_an_esi_file(tmp_path):
     # counts no input WKC for a bus whose only inputs are one sub-byte slave (its segment rule
     # adds one only when the logical address advanced) and so expects 0; SOEM v1.4.0 (one per
     # input FMMU) and v2 (byte-aligned) expect 1, as our Master does
-    assert max(rep["wkc_values"]) == 1      # (a reply lost to a loaded machine's timeout reads as <= 0)
+    assert max(rep["wkc_values"]) == 1      # (a reply lost to a loaded machine's timeout is counted in wkc_lost)
     assert rep["expected_wkc"] in (0, 1)
     assert [e.state for e in bus.slaves] == [1, 1]        # the master's final INIT request

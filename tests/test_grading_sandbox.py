@@ -264,7 +264,9 @@ def test_a_timing_submission_runs_alone_and_one_waiting_goes_before_later_plain_
             log.append(("start", name, cpus))
             started[name].set()
             release[name].wait(10)
-        log.append(("end", name))
+            # logged while the gate is still held: appended after leaving it, the next holder's "start"
+            # could come first whenever the machine preempts this thread in between
+            log.append(("end", name))
 
     def until(cond):
         deadline = time.monotonic() + 10

@@ -10,14 +10,12 @@ import pytest
 
 from robocourse.bus import introspection
 from robocourse.bus.context import Context
-from robocourse.bus.zenoh.processes import _CHILDREN, free_endpoint, start_child
-from robocourse.bus.zenoh.transport import router
+from robocourse.bus.zenoh.processes import _CHILDREN, free_router, start_child
 
 
 @pytest.fixture
 def ep():
-    e = free_endpoint()
-    r = router([e])
+    r, e = free_router()
     yield e
     r.close()
 
@@ -133,3 +131,18 @@ def test_a_child_whose_parent_is_killed_exits_too(ep, tmp_path):
         if parent.poll() is None:
             parent.kill()
         parent.stdout.close()
+
+
+def test_free_router_picks_another_port_when_its_first_is_taken_meanwhile(monkeypatch):
+    import robocourse.bus.zenoh.processes as processes
+
+    holder, taken = free_router()            # another process took the port free_endpoint just picked
+    picks = iter([taken])
+    real = processes.free_endpoint
+    monkeypatch.setattr(processes, "free_endpoint", lambda host="127.0.0.1": next(picks, None) or real(host))
+    try:
+        r, ep = processes.free_router()
+        assert ep != taken and ep.startswith("tcp/127.0.0.1:")
+        r.close()
+    finally:
+        holder.close()

@@ -148,9 +148,14 @@ def test_a_clean_clone_orders_units_by_the_committed_seconds_and_the_cache_wins_
     (project / "tests").mkdir(parents=True)
     (project / "pytest.ini").write_text(_INI)
     shutil.copy(HERE / "conftest.py", project / "tests" / "conftest.py")
-    for name in "abc":
-        (project / "tests" / f"test_mod_{name}.py").write_text(
-            f"import time\n\ndef test_one():\n    time.sleep({0.3 if name == 'a' else 0.0})\n")
+    for name in "bc":
+        (project / "tests" / f"test_mod_{name}.py").write_text("def test_one():\n    pass\n")
+    # a takes longer than c and b together, whatever the load (a no-op took more than a fixed 0.3 s once on a
+    # loaded machine): its module is imported at collection, before any test runs, and its test sleeps at least
+    # as long as everything since then (c and b run first, in the committed order)
+    (project / "tests" / "test_mod_a.py").write_text(
+        "import time\n\nCOLLECTED = time.monotonic()\n\n\ndef test_one():\n"
+        "    time.sleep(max(0.3, 2 * (time.monotonic() - COLLECTED)))\n")
     (project / "tests" / "test_serial.py").write_text(
         "import pytest\npytestmark = pytest.mark.serial\n\ndef test_alone():\n    pass\n")
     (project / "tests" / "unit_seconds.json").write_text(
@@ -167,7 +172,7 @@ def test_a_clean_clone_orders_units_by_the_committed_seconds_and_the_cache_wins_
 
     first = ["test_mod_c.py", "test_mod_b.py", "test_mod_a.py", "test_serial.py"]
     assert order("--collect-only") == first
-    order()                                     # a run: a took 0.3 s here, b and c ~0
+    order()                                     # a run: a took longer than b and c here
     after = order("--collect-only")
     assert after[0] == "test_mod_a.py" and after[-1] == "test_serial.py", after
 

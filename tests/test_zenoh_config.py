@@ -9,12 +9,12 @@ import pytest
 from robocourse.bus.context import Context
 from robocourse.bus.executors import SingleThreadedExecutor
 from robocourse.bus.logging import LoggingSeverity
+from robocourse.bus.zenoh.processes import free_router
 from robocourse.bus.zenoh.transport import (
     LISTEN_ALL,
     LISTEN_LOOPBACK,
     default_listen,
     is_loopback,
-    router,
 )
 from robocourse.msgs.std_msgs import Int32
 
@@ -58,10 +58,8 @@ def test_two_machine_configuration_with_one_option():
     lan = _lan_address()
     if lan is None:
         pytest.skip("this machine has no non-loopback IPv4 address to stand in for a LAN")
-    with socket.socket() as s:
-        s.bind(("0.0.0.0", 0))
-        port = s.getsockname()[1]
-    r = router([f"tcp/0.0.0.0:{port}"])
+    r, ep = free_router("0.0.0.0")
+    port = ep.rsplit(":", 1)[1]
     b = Context(transport="zenoh", connect=[f"tcp/{lan}:{port}"])           # the one option
     a = Context(transport="zenoh", connect=[f"tcp/127.0.0.1:{port}"])
     explicit = Context(transport="zenoh", connect=[f"tcp/{lan}:{port}"],
@@ -90,15 +88,8 @@ def test_two_machine_configuration_with_one_option():
         r.close()
 
 
-def _ep():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
-
-
 def test_sim_time_with_the_zenoh_transport_warns_once_with_the_fix():
-    ep = _ep()
-    r = router([ep])
+    r, ep = free_router()
     sim = Context(use_sim_time=True, transport="zenoh", connect=[ep])
     wall = Context(transport="zenoh", connect=[ep])
     try:

@@ -15,7 +15,7 @@ import pytest
 from robocourse.bus import introspection as ros2
 from robocourse.bus.context import Context
 from robocourse.bus.executors import SingleThreadedExecutor
-from robocourse.bus.zenoh.transport import router
+from robocourse.bus.zenoh.processes import free_router
 from robocourse.msgs.example_interfaces import AddTwoInts
 from robocourse.msgs.std_msgs import String
 
@@ -31,8 +31,7 @@ def _free_port():
 
 @pytest.fixture
 def endpoint():
-    ep = f"tcp/127.0.0.1:{_free_port()}"
-    r = router([ep])
+    r, ep = free_router()
     yield ep
     r.close()
 

@@ -26,7 +26,9 @@ class VethPair:
     """Namespace ``ns`` with ``master_if``; ``bus_if`` stays in the caller's namespace."""
 
     def __init__(self, tag: str | None = None) -> None:
-        tag = tag or f"{os.getpid() % 100000}"
+        # the pid, whole: names are machine-wide, and two runs on one machine must never share one
+        # (a pair found with this name is a leftover of a killed run of this pid, and __enter__ removes it)
+        tag = tag or f"{os.getpid()}"
         self.ns = f"rcecat{tag}"
         self.master_if = f"rcm{tag}"[:15]
         self.bus_if = f"rcs{tag}"[:15]

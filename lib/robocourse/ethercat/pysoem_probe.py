@@ -2,9 +2,14 @@
 
 ``python -m robocourse.ethercat.pysoem_probe IFNAME --cycles 1000`` does what SOEM's
 simple_test does (config_init, config_map, config_dc, SAFE_OP, OP while exchanging process
-data), then ``--cycles`` exchanges, counting the working counters, writing a counter to the
-first 1-byte output slave and walking the first CiA 402 drive (13 output bytes) to Operation
-enabled with ethercat_driver_ros2's automatic transitions. It times every round trip.
+data), then exchanges until ``--cycles`` of them were answered, counting the working counters,
+writing a counter to the first 1-byte output slave and walking the first CiA 402 drive (13
+output bytes) to Operation enabled with ethercat_driver_ros2's automatic transitions. It times
+every round trip. A frame not back within ``--ret-timeout-us`` (SOEM's EC_NOFRAME, -1: the bus's
+process did not run in time) is counted in ``wkc_lost`` and the exchange
+repeated, as a cyclic application carries on after a lost frame; at most ``max(cycles, 1000)``
+of them, so a dead bus ends the run. A frame that came back with a wrong working counter counts
+in ``wkc_values``, never as lost.
 It is a separate process so a hang in SOEM cannot block the caller (run it with a timeout).
 """
 
@@ -15,6 +20,9 @@ import json
 import struct
 import sys
 import time
+
+#: SOEM's return for a frame that did not come back within the timeout (ethercattype.h)
+EC_NOFRAME = -1
 
 
 def _auto_cw(sw: int, cw: int) -> int:
@@ -31,15 +39,21 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("ifname")
     ap.add_argument("--cycles", type=int, default=1000)
-    ap.add_argument("--ret-timeout-us", type=int, default=20000,
-                    help="SOEM's EC_TIMEOUTRET (default 2000 us; raised for a loaded machine)")
+    ap.add_argument("--ret-timeout-us", type=int, default=1_000_000,
+                    help="SOEM's EC_TIMEOUTRET, and the floor of its EEPROM, SAFE and mailbox timeouts (SOEM's "
+                    "defaults: 2, 20, 20, 20 and 700 ms); a safety net of 1 s here: our bus is a process on a loaded "
+                    "machine, and an answer SOEM gave up on changes the bring-up it sends (a status read that timed "
+                    "out made it read the EEPROM 4 bytes at a time instead of 8)")
     ap.add_argument("--sdo-slave", type=int, default=0,
                     help="1-based slave to read 0x1018:01 and 0x6061 from by SDO, and to ask for "
                     "a missing object 0x2000 (its abort)")
     a = ap.parse_args(argv)
     import pysoem
 
-    pysoem.settings.timeouts.ret = a.ret_timeout_us
+    t = pysoem.settings.timeouts
+    t.ret = a.ret_timeout_us
+    for name in ("safe", "eeprom", "tx_mailbox", "rx_mailbox"):
+        setattr(t, name, max(getattr(t, name), a.ret_timeout_us))
     rep: dict = {"pysoem": pysoem.__version__}
     m = pysoem.Master()
     m.open(a.ifname)
@@ -78,8 +92,8 @@ def main(argv: list[str] | None = None) -> int:
         rep["al_status_codes"] = [s.al_status for s in m.slaves]
         do = next((s for s in m.slaves if len(s.output) == 1), None)
         drive = next((s for s in m.slaves if len(s.output) == 13), None)
-        wkcs, rtt, cw = [], [], 0
-        for k in range(a.cycles):
+        wkcs, rtt, cw, k, lost = [], [], 0, 0, 0
+        while len(wkcs) < a.cycles and lost < max(a.cycles, 1000):
             if do is not None:
                 do.output = bytes([k & 0xFF])
             if drive is not None:
@@ -88,8 +102,14 @@ def main(argv: list[str] | None = None) -> int:
                 drive.output = struct.pack("<HiihB", cw, pos, 0, 0, 8)
             t0 = time.perf_counter_ns()
             m.send_processdata()
-            wkcs.append(m.receive_processdata(a.ret_timeout_us))
+            wkc = m.receive_processdata(a.ret_timeout_us)
             rtt.append(time.perf_counter_ns() - t0)
+            k += 1
+            if wkc == EC_NOFRAME:
+                lost += 1
+            else:
+                wkcs.append(wkc)
+        rep["wkc_lost"] = lost
         rep["wkc_ok"] = sum(w == m.expected_wkc for w in wkcs)
         rep["wkc_values"] = sorted(set(wkcs))
         rep["rtt_ns"] = rtt

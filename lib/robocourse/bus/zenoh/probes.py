@@ -60,12 +60,10 @@ def node_probe(inputs, accumulator_node):
     from robocourse.bus.context import Context
     from robocourse.bus.executors import SingleThreadedExecutor
     from robocourse.bus.qos import QoSProfile
-    from robocourse.bus.zenoh.processes import free_endpoint, start_child
-    from robocourse.bus.zenoh.transport import router
+    from robocourse.bus.zenoh.processes import free_router, start_child
     from robocourse.msgs.std_msgs import Int64
 
-    ep = free_endpoint()
-    r = router([ep])
+    r, ep = free_router()
     ctx = child = None
     try:
         try:

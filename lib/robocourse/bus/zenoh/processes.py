@@ -42,6 +42,24 @@ def free_endpoint(host: str = "127.0.0.1") -> str:
         return f"tcp/{host}:{s.getsockname()[1]}"
 
 
+def free_router(host: str = "127.0.0.1", attempts: int = 5):
+    """``(router session, endpoint)``: a zenoh router (``rmw_zenohd``) listening on a port of its own.
+
+    The port is free when :func:`free_endpoint` picks it, but any process may take it before the
+    router binds it (every zenoh peer listens on a port 0 of its own): then another is picked.
+    """
+    from .transport import router
+
+    for k in range(attempts):
+        ep = free_endpoint(host)
+        try:
+            return router([ep]), ep
+        except OSError:
+            if k == attempts - 1:
+                raise
+    raise ValueError(f"attempts={attempts!r} must be at least 1")
+
+
 def _spec(target, args, duration, with_context, domain_id, connect):
     if isinstance(target, str):
         if target.count(":") != 1:
