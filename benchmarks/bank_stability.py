@@ -1,7 +1,9 @@
 """Answer-bank stability: the closing note's table for issue 26, from N sandboxed gradings per bank.
 
 Issue 26's rule: a check is trusted when its verdicts never change, also on a loaded machine.
-CI grades every answer once (tests/test_banks.py); this script runs the N repetitions and
+CI grades every answer once quiet and the correct answers of the ``timing=True`` exercises once
+more under load (tests/test_banks.py); the wrong answers of those exercises are graded under load
+only here (``--timing only --conditions loaded``, issue 31). This script runs the N repetitions and
 prints, per exercise of chapters 0-7: how many wrong answers its bank holds and the properties
 they break, how often the reference scored full, how often the differently written right
 answer(s) scored full, how many runs had every answer (wrong ones included) as the bank
