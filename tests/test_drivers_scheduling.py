@@ -3,6 +3,7 @@
 back: upstream's behaviour, kept. Our own code that constructs one (the round-trip measurement,
 franka_hardware's SystemInterface) gives the caller its scheduling back, so a notebook kernel or
 a benchmark row "without RT" does not run at 99. rt.settings.scheduling_kept() is the tool.
+Without privilege (a student's laptop) the request is refused: kIgnore carries on, kEnforce raises.
 Each case runs in a child process, so this worker's own scheduling is never touched."""
 
 from __future__ import annotations
@@ -87,3 +88,34 @@ def test_libfranka_raises_the_constructing_thread_and_our_code_gives_it_back():
     assert "plain ('SCHED_FIFO', 99)" in lines, out
     assert "roundtrip ('SCHED_OTHER', 0) True" in lines, out
     assert "system ('SCHED_OTHER', 0) True" in lines, out
+
+
+def test_unprivileged_libfranka_leaves_the_thread_and_only_kenforce_raises():
+    # the student's path: no rtprio. As root, the child drops to nobody (and an rtprio limit of 0)
+    # after its imports; the box runs in this process's child, as the robot would, untouched
+    pytest.importorskip("pylibfranka", reason="pylibfranka (PyPI, Linux x86_64) is not installed")
+    import robocourse.drivers as drivers
+
+    box = drivers.start_franka_box()
+    try:
+        out = run(f"""
+            import os, resource
+            import pylibfranka
+            from robocourse.rt import settings
+            resource.setrlimit(resource.RLIMIT_RTPRIO, (0, 0))
+            if os.geteuid() == 0:
+                os.setgid(65534)
+                os.setuid(65534)
+            with settings.scheduling_kept() as seen:
+                robot = pylibfranka.Robot({box.host!r}, pylibfranka.RealtimeConfig.kIgnore)
+            print("kIgnore", seen["changed"], settings.current_scheduling(), robot.read_once().robot_mode.name)
+            del robot
+            try:
+                pylibfranka.Robot({box.host!r}, pylibfranka.RealtimeConfig.kEnforce)
+                print("kEnforce connected")
+            except pylibfranka.RealtimeException as exc:
+                print("kEnforce RealtimeException", "Operation not permitted" in str(exc))
+        """)
+    finally:
+        box.stop()
+    assert out.splitlines() == ["kIgnore False ('SCHED_OTHER', 0) Idle", "kEnforce RealtimeException True"], out
