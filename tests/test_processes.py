@@ -146,3 +146,23 @@ def test_free_router_picks_another_port_when_its_first_is_taken_meanwhile(monkey
         r.close()
     finally:
         holder.close()
+
+
+def test_free_router_refuses_attempts_that_cannot_try_before_any_router_starts():
+    import robocourse.bus.zenoh.processes as processes
+
+    for bad in (0, -1, 2.5, True, "3"):
+        with pytest.raises(ValueError, match=r"attempts=.*at least 1, e\.g\. 5"):
+            processes.free_router(attempts=bad)
+
+
+def test_free_router_raises_the_last_tries_error_when_every_port_is_taken(monkeypatch):
+    import robocourse.bus.zenoh.processes as processes
+
+    holder, taken = free_router()
+    monkeypatch.setattr(processes, "free_endpoint", lambda host="127.0.0.1": taken)
+    try:
+        with pytest.raises(OSError):
+            processes.free_router(attempts=2)
+    finally:
+        holder.close()

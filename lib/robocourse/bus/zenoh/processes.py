@@ -20,6 +20,7 @@ running when the notebook's interpreter exits is killed: no orphans.
 from __future__ import annotations
 
 import atexit
+import contextlib
 import inspect
 import json
 import os
@@ -48,16 +49,16 @@ def free_router(host: str = "127.0.0.1", attempts: int = 5):
     The port is free when :func:`free_endpoint` picks it, but any process may take it before the
     router binds it (every zenoh peer listens on a port 0 of its own): then another is picked.
     """
+    if isinstance(attempts, bool) or not isinstance(attempts, int) or attempts < 1:
+        raise ValueError(f"free_router(attempts={attempts!r}): give a whole number of tries, at least 1, e.g. 5")
     from .transport import router
 
-    for k in range(attempts):
+    for _ in range(attempts - 1):
         ep = free_endpoint(host)
-        try:
+        with contextlib.suppress(OSError):
             return router([ep]), ep
-        except OSError:
-            if k == attempts - 1:
-                raise
-    raise ValueError(f"attempts={attempts!r} must be at least 1")
+    ep = free_endpoint(host)
+    return router([ep]), ep           # the last try's error, if any, is the caller's
 
 
 def _spec(target, args, duration, with_context, domain_id, connect):
