@@ -28,6 +28,7 @@ lists them per chapter, quiet beside loaded, as issue 25's closing note does.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import fcntl
 import json
@@ -49,6 +50,15 @@ CELL_TIMEOUT_S = 240
 KNOWN_LOAD_FAILURES: dict[str, str] = {}
 #: the loads this process started (a load another worker ended is reaped here once its processes are gone)
 _OWNED: list[CpuLoad] = []
+
+
+@atexit.register
+def _end_owned_loads():
+    """At this worker's exit, end and reap every load it started: one another worker ended after this
+    worker's last chapter would otherwise stay an unreaped child (a ResourceWarning at exit)."""
+    for load in list(_OWNED):
+        load.__exit__(None, None, None)
+    _OWNED.clear()
 
 
 def _spinning(pid: int) -> bool:
